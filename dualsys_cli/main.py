@@ -1,0 +1,23 @@
+"""The `dualsys` command: one Typer app, one module per command group.
+
+Each group module stays thin: it parses options, calls a library function and prints.
+"""
+
+from __future__ import annotations
+
+import typer
+
+from dualsys_cli import bench, env
+
+app = typer.Typer(
+    name="dualsys",
+    help="Dual-system (model-based + model-free) robot motor learning: IM2C and I2A.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+)
+app.add_typer(env.app, name="env")
+app.add_typer(bench.app, name="bench")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    app()

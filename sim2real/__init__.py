@@ -1,0 +1,1 @@
+"""dualsys sim2real."""

@@ -1,0 +1,1 @@
+"""Test factories shared by tests/registry and tests/service (mirrors FastAPI's template layout)."""

@@ -39,9 +39,6 @@ OutputActivation = Literal["linear", "released"]
 NodeInit = Literal["fresh", "parent"]
 ErrorNorm = Literal["squared", "l2"]
 
-_PARAM_NAMES = ("w1", "b1", "wm", "bm", "wr", "br")
-
-
 @dataclass(frozen=True)
 class ModelPrediction:
     """Predicted next latents ``[B, latent]`` and rewards ``[B]``."""
@@ -51,7 +48,13 @@ class ModelPrediction:
 
 
 class ModelBank:
-    """Stacked local world models, one per ITM node (Eq. 5), with a stacked per-node Adam."""
+    """Stacked local world models, one per ITM node (Eq. 5), with a stacked per-node Adam.
+
+    Storage: one float32 tensor ``theta [capacity, P]`` holds every node's parameters flattened
+    (w1 ``[in, hidden]``, b1, wm ``[hidden, latent]``, bm, wr ``[hidden, 1]``, br); ``params[name]``
+    are views of it. Adam's first/second moments are tensors of the same shape, so one Adam step over
+    all touched nodes is a handful of tensor ops whatever the number of nodes.
+    """
 
     def __init__(
         self,
@@ -85,9 +88,8 @@ class ModelBank:
         self.init: NodeInit = init
         self.error_norm: ErrorNorm = error_norm
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
-        capacity = max(1, int(initial_capacity))
         in_dim = latent_dim + action_dim
-        self._shapes = {
+        self._shapes: dict[str, tuple[int, ...]] = {
             "w1": (in_dim, hidden),
             "b1": (hidden,),
             "wm": (hidden, latent_dim),
@@ -95,11 +97,17 @@ class ModelBank:
             "wr": (hidden, 1),
             "br": (1,),
         }
-        self.params: dict[str, torch.Tensor] = {
-            k: torch.zeros((capacity, *s)) for k, s in self._shapes.items()
-        }
-        self.exp_avg = {k: torch.zeros_like(v) for k, v in self.params.items()}
-        self.exp_avg_sq = {k: torch.zeros_like(v) for k, v in self.params.items()}
+        self._slices: dict[str, slice] = {}
+        offset = 0
+        for k, shape in self._shapes.items():
+            size = math.prod(shape)
+            self._slices[k] = slice(offset, offset + size)
+            offset += size
+        self.num_params = offset
+        capacity = max(1, int(initial_capacity))
+        self.theta = torch.zeros((capacity, self.num_params))
+        self.exp_avg = torch.zeros_like(self.theta)
+        self.exp_avg_sq = torch.zeros_like(self.theta)
         self.steps = torch.zeros(capacity, dtype=torch.int64)
         self.reset_nodes(torch.arange(capacity))
 
@@ -107,6 +115,15 @@ class ModelBank:
     @property
     def capacity(self) -> int:
         return self.steps.shape[0]
+
+    @property
+    def params(self) -> dict[str, torch.Tensor]:
+        """Named views ``[capacity, *shape]`` into ``theta`` (writes go through)."""
+        return self._split(self.theta)
+
+    def _split(self, flat: torch.Tensor) -> dict[str, torch.Tensor]:
+        rows = flat.shape[0]
+        return {k: flat[:, self._slices[k]].view(rows, *shape) for k, shape in self._shapes.items()}
 
     def ensure_capacity(self, size: int) -> None:
         """Grow the stacked tensors geometrically (×2) until ``size`` slots exist."""
@@ -116,11 +133,11 @@ class ModelBank:
         new = old
         while new < size:
             new *= 2
-        extra = new - old
-        for store in (self.params, self.exp_avg, self.exp_avg_sq):
-            for k, v in store.items():
-                store[k] = torch.cat([v, torch.zeros((extra, *v.shape[1:]))])
-        self.steps = torch.cat([self.steps, torch.zeros(extra, dtype=torch.int64)])
+        extra = torch.zeros((new - old, self.num_params))
+        self.theta = torch.cat([self.theta, extra])
+        self.exp_avg = torch.cat([self.exp_avg, extra])
+        self.exp_avg_sq = torch.cat([self.exp_avg_sq, extra])
+        self.steps = torch.cat([self.steps, torch.zeros(new - old, dtype=torch.int64)])
         self.reset_nodes(torch.arange(old, new))
 
     def reset_nodes(
@@ -131,59 +148,57 @@ class ModelBank:
         if ids.numel() == 0:
             return
         self.ensure_capacity(int(ids.max()) + 1)
-        copy_parent = self.init == "parent" and parents is not None
-        par = torch.as_tensor(parents, dtype=torch.int64).reshape(-1) if parents is not None else None
-        for k, shape in self._shapes.items():
-            if copy_parent and par is not None:
-                valid = par >= 0
-                fresh = self._fresh(k, int((~valid).sum()))
-                values = torch.empty((ids.numel(), *shape))
-                values[valid] = self.params[k][par[valid]]
-                values[~valid] = fresh
-            else:
-                values = self._fresh(k, ids.numel())
-            self.params[k][ids] = values
-            self.exp_avg[k][ids] = 0.0
-            self.exp_avg_sq[k][ids] = 0.0
+        values = self._fresh(ids.numel())
+        if self.init == "parent" and parents is not None:
+            par = torch.as_tensor(parents, dtype=torch.int64).reshape(-1)
+            valid = par >= 0
+            values[valid] = self.theta[par[valid]]
+        self.theta[ids] = values
+        self.exp_avg[ids] = 0.0
+        self.exp_avg_sq[ids] = 0.0
         self.steps[ids] = 0
 
-    def _fresh(self, name: str, count: int) -> torch.Tensor:
-        """``nn.Linear`` default init: weights and biases ~ U(−1/√fan_in, 1/√fan_in)."""
-        fan_in = self.latent_dim + self.action_dim if name in ("w1", "b1") else self.hidden
-        bound = 1.0 / math.sqrt(fan_in)
-        shape = (count, *self._shapes[name])
-        return (torch.rand(shape, generator=self.generator) * 2.0 - 1.0) * bound
+    def _fresh(self, count: int) -> torch.Tensor:
+        """``nn.Linear`` default init: weights and biases ~ U(−1/√fan_in, 1/√fan_in), flattened."""
+        out = torch.empty((count, self.num_params))
+        for k, sl in self._slices.items():
+            fan_in = self.latent_dim + self.action_dim if k in ("w1", "b1") else self.hidden
+            bound = 1.0 / math.sqrt(fan_in)
+            uniform = torch.rand((count, sl.stop - sl.start), generator=self.generator)
+            out[:, sl] = (uniform * 2.0 - 1.0) * bound
+        return out
 
     # ------------------------------------------------------------------ forward
     def _forward(
         self, p: dict[str, torch.Tensor], phi: torch.Tensor, action: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor]:
-        """Per-sample forward with per-sample gathered parameters ``p[k]: [B, ...]``."""
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Per-sample forward with per-sample parameters ``p[k]: [B, ...]``; returns (x, h, φ̂, r̂)."""
         x = torch.cat([phi, action], dim=-1)
-        h = torch.tanh(torch.einsum("bi,bih->bh", x, p["w1"]) + p["b1"])
-        next_latent = torch.einsum("bh,bho->bo", h, p["wm"]) + p["bm"]
-        reward = torch.einsum("bh,bho->bo", h, p["wr"]).squeeze(-1) + p["br"].squeeze(-1)
+        h = torch.tanh(torch.bmm(x.unsqueeze(1), p["w1"]).squeeze(1) + p["b1"])
+        next_latent = torch.bmm(h.unsqueeze(1), p["wm"]).squeeze(1) + p["bm"]
+        reward = (h * p["wr"].squeeze(-1)).sum(-1) + p["br"].squeeze(-1)
         if self.output_activation == "released":
             next_latent = torch.sigmoid(next_latent)
             reward = torch.tanh(reward)
-        return next_latent, reward
+        return x, h, next_latent, reward
 
     def gather(self, node_ids: torch.Tensor) -> dict[str, torch.Tensor]:
         """Parameters of the given nodes, one row per id (a gathered copy)."""
         ids = torch.as_tensor(node_ids, dtype=torch.int64).reshape(-1)
-        return {k: v[ids] for k, v in self.params.items()}
+        return self._split(self.theta.index_select(0, ids))
 
     def forward_with(
         self, params: dict[str, torch.Tensor], phi: torch.Tensor, action: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        """Differentiable forward with already gathered parameters (used by the planner, Eq. 6-7)."""
-        return self._forward(params, phi, action)
+        """Differentiable forward with already gathered parameters (the planner's autograd reference)."""
+        _, _, next_latent, reward = self._forward(params, phi, action)
+        return next_latent, reward
 
     @torch.no_grad()
     def predict(self, node_ids: torch.Tensor, phi: torch.Tensor, action: torch.Tensor) -> ModelPrediction:
         """M_n(φ, a) and R_n(φ, a) for each (node, sample) pair, one batched op."""
         phi, action = _as_batch(phi), _as_batch(action)
-        next_latent, reward = self._forward(self.gather(node_ids), phi, action)
+        _, _, next_latent, reward = self._forward(self.gather(node_ids), phi, action)
         return ModelPrediction(next_latent=next_latent, reward=reward)
 
     # ------------------------------------------------------------------ Eq. 8 errors
@@ -202,6 +217,7 @@ class ModelBank:
         return d_latent.norm(dim=-1) + d_reward.abs()
 
     # ------------------------------------------------------------------ Eq. 5 update
+    @torch.no_grad()
     def update(
         self,
         node_ids: torch.Tensor,
@@ -212,64 +228,85 @@ class ModelBank:
     ) -> torch.Tensor:
         """One Adam step per touched node on its mean Eq. 5 loss; returns pre-update Eq. 8 errors ``[B]``.
 
-        Samples may share a node. Gradients are taken on the gathered rows of the unique touched
-        nodes, so each node's gradient is exactly that of its own mean loss; the Adam step is applied
-        to those rows only (bias correction with each node's own step count).
+        Samples may share a node: each sample's loss is weighted by 1/(its node's sample count), the
+        per-sample gradients (written out by hand for the one-hidden-layer model) are summed per node
+        with ``index_add_``, and the Adam step is applied to the touched nodes' rows only, with each
+        node's own step count in the bias correction.
         """
         ids = torch.as_tensor(node_ids, dtype=torch.int64).reshape(-1)
-        phi, action = _as_batch(phi).detach(), _as_batch(action).detach()
-        next_phi = _as_batch(next_phi).detach()
-        reward = torch.as_tensor(reward, dtype=torch.float32).reshape(-1).detach()
+        phi, action = _as_batch(phi), _as_batch(action)
+        next_phi = _as_batch(next_phi)
+        reward = torch.as_tensor(reward, dtype=torch.float32).reshape(-1)
         if ids.numel() != phi.shape[0]:
             raise ValueError(f"update got {ids.numel()} node ids for {phi.shape[0]} samples")
-        unique, inverse, counts = torch.unique(ids, return_inverse=True, return_counts=True)
-        leaves = {k: v[unique].requires_grad_(True) for k, v in self.params.items()}
-        per_sample = {k: v[inverse] for k, v in leaves.items()}
-        pred_latent, pred_reward = self._forward(per_sample, phi, action)
+        if ids.numel() == 1:
+            unique, inverse, counts = ids, torch.zeros(1, dtype=torch.int64), torch.ones(1, dtype=torch.int64)
+        else:
+            unique, inverse, counts = torch.unique(ids, return_inverse=True, return_counts=True)
+        rows = self.theta.index_select(0, unique)
+        per_sample = self._split(rows.index_select(0, inverse))
+        x, h, pred_latent, pred_reward = self._forward(per_sample, phi, action)
         d_latent = pred_latent - next_phi
         d_reward = pred_reward - reward
-        sq = (d_latent * d_latent).sum(-1) + d_reward * d_reward
-        weights = 1.0 / counts[inverse].to(sq.dtype)
-        loss = (sq * weights).sum()
-        grads = torch.autograd.grad(loss, list(leaves.values()))
-        with torch.no_grad():
-            errors = sq.detach() if self.error_norm == "squared" else d_latent.norm(dim=-1) + d_reward.abs()
-            self._adam_step(unique, dict(zip(leaves.keys(), grads, strict=True)))
-        return errors.detach()
+        if self.error_norm == "squared":
+            errors = (d_latent * d_latent).sum(-1) + d_reward * d_reward
+        else:
+            errors = d_latent.norm(dim=-1) + d_reward.abs()
+        # ∂/∂output of Σ_b w_b (‖φ̂_b − φ′_b‖² + (r̂_b − r_b)²), w_b = 1 / count(node of b).
+        weight = (2.0 / counts[inverse].to(torch.float32)).unsqueeze(-1)
+        g_latent = weight * d_latent
+        g_reward = weight.squeeze(-1) * d_reward
+        if self.output_activation == "released":
+            g_latent = g_latent * pred_latent * (1.0 - pred_latent)
+            g_reward = g_reward * (1.0 - pred_reward * pred_reward)
+        g_hidden = torch.bmm(per_sample["wm"], g_latent.unsqueeze(-1)).squeeze(-1)
+        g_hidden = (g_hidden + g_reward.unsqueeze(-1) * per_sample["wr"].squeeze(-1)) * (1.0 - h * h)
+        batch = ids.numel()
+        grad = torch.empty((batch, self.num_params))
+        grad[:, self._slices["w1"]] = (x.unsqueeze(-1) * g_hidden.unsqueeze(1)).reshape(batch, -1)
+        grad[:, self._slices["b1"]] = g_hidden
+        grad[:, self._slices["wm"]] = (h.unsqueeze(-1) * g_latent.unsqueeze(1)).reshape(batch, -1)
+        grad[:, self._slices["bm"]] = g_latent
+        grad[:, self._slices["wr"]] = h * g_reward.unsqueeze(-1)
+        grad[:, self._slices["br"]] = g_reward.unsqueeze(-1)
+        if batch > 1:  # sum the per-sample gradients of each node (rows follow ``unique``'s order)
+            grad = torch.zeros((unique.numel(), self.num_params)).index_add_(0, inverse, grad)
+        self._adam_step(unique, rows, grad)
+        return errors
 
-    @torch.no_grad()
-    def _adam_step(self, unique: torch.Tensor, grads: dict[str, torch.Tensor]) -> None:
+    def _adam_step(self, unique: torch.Tensor, rows: torch.Tensor, grad: torch.Tensor) -> None:
         """``torch.optim.Adam`` (no weight decay, no amsgrad) on the stacked rows of ``unique``."""
         step = self.steps[unique] + 1
         self.steps[unique] = step
         stepf = step.to(torch.float64)
-        bias1 = (1.0 - self.beta1**stepf).to(torch.float32)
-        bias2_sqrt = torch.sqrt(1.0 - self.beta2**stepf).to(torch.float32)
-        for k, g in grads.items():
-            view = (-1,) + (1,) * (g.dim() - 1)
-            m = self.exp_avg[k][unique].mul_(self.beta1).add_(g, alpha=1.0 - self.beta1)
-            v = self.exp_avg_sq[k][unique].mul_(self.beta2).addcmul_(g, g, value=1.0 - self.beta2)
-            denom = v.sqrt() / bias2_sqrt.view(view) + self.eps
-            p = self.params[k][unique] - (self.lr / bias1).view(view) * m / denom
-            self.exp_avg[k][unique] = m
-            self.exp_avg_sq[k][unique] = v
-            self.params[k][unique] = p
+        bias1 = (1.0 - self.beta1**stepf).to(torch.float32).unsqueeze(-1)
+        bias2_sqrt = torch.sqrt(1.0 - self.beta2**stepf).to(torch.float32).unsqueeze(-1)
+        b1, b2 = self.beta1, self.beta2
+        m = self.exp_avg.index_select(0, unique).mul_(b1).add_(grad, alpha=1.0 - b1)
+        v = self.exp_avg_sq.index_select(0, unique).mul_(b2).addcmul_(grad, grad, value=1.0 - b2)
+        denom = v.sqrt().div_(bias2_sqrt).add_(self.eps)
+        self.theta.index_copy_(0, unique, rows.addcdiv_(m, denom.mul_(bias1 / self.lr), value=-1.0))
+        self.exp_avg.index_copy_(0, unique, m)
+        self.exp_avg_sq.index_copy_(0, unique, v)
 
     # ------------------------------------------------------------------ checkpoints
     def state_dict(self) -> dict[str, torch.Tensor]:
-        state = {f"param.{k}": v.clone() for k, v in self.params.items()}
-        state |= {f"exp_avg.{k}": v.clone() for k, v in self.exp_avg.items()}
-        state |= {f"exp_avg_sq.{k}": v.clone() for k, v in self.exp_avg_sq.items()}
-        state["steps"] = self.steps.clone()
-        return state
+        return {
+            "theta": self.theta.clone(),
+            "exp_avg": self.exp_avg.clone(),
+            "exp_avg_sq": self.exp_avg_sq.clone(),
+            "steps": self.steps.clone(),
+        }
 
     def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
-        for k in _PARAM_NAMES:
-            if tuple(state[f"param.{k}"].shape[1:]) != self._shapes[k]:
-                raise ValueError(f"model-bank checkpoint: {k} has shape {tuple(state[f'param.{k}'].shape)}")
-            self.params[k] = state[f"param.{k}"].clone()
-            self.exp_avg[k] = state[f"exp_avg.{k}"].clone()
-            self.exp_avg_sq[k] = state[f"exp_avg_sq.{k}"].clone()
+        if state["theta"].dim() != 2 or state["theta"].shape[1] != self.num_params:
+            raise ValueError(
+                f"model-bank checkpoint holds {tuple(state['theta'].shape)} parameters, "
+                f"this bank needs [*, {self.num_params}]"
+            )
+        self.theta = state["theta"].clone()
+        self.exp_avg = state["exp_avg"].clone()
+        self.exp_avg_sq = state["exp_avg_sq"].clone()
         self.steps = state["steps"].clone()
 
 

@@ -26,3 +26,15 @@ def bench_env(
     from bench.env_speed import measure
 
     _emit(measure(seconds=seconds), as_json)
+
+
+@app.command("modelbank")
+def bench_modelbank(
+    batch: int = typer.Option(32, min=1, help="(node, sample) pairs per predict + update call."),
+    repeats: int = typer.Option(200, min=1, help="Timed calls per node count (median reported)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
+) -> None:
+    """World-model bank predict + update time for 2, 50 and 500 nodes (goal: 500 ≤ 2× the cost of 2)."""
+    from bench.modelbank_speed import measure
+
+    _emit(measure(batch=batch, repeats=repeats), as_json)

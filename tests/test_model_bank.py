@@ -120,7 +120,7 @@ def test_parent_init_copies_parent_and_resets_adam_state() -> None:
     bank.reset_nodes([3], parents=[1])
     for k in bank.params:
         assert torch.equal(bank.params[k][3], bank.params[k][1])
-        assert bank.exp_avg[k][3].abs().sum() == 0
+    assert bank.exp_avg[3].abs().sum() == 0 and bank.exp_avg_sq[3].abs().sum() == 0
     assert int(bank.steps[3]) == 0
 
 

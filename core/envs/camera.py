@@ -121,7 +121,7 @@ def gaussian_blur(image: np.ndarray, sigma: float) -> np.ndarray:
     """Separable Gaussian blur of an HxWxC float image (edge-padded), vectorised over pixels."""
     if sigma <= 0:
         return image
-    radius = max(1, int(math.ceil(2 * sigma)))
+    radius = max(1, math.ceil(2 * sigma))
     taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
     taps /= taps.sum()
     h, w = image.shape[:2]

@@ -26,9 +26,10 @@ is verified is still decided by the measured distance.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -74,7 +75,7 @@ class PhysicsSettings:
 class NicoGraspEnv(gym.Env):
     """The NICO-like grasping task. Observation: uint8 image (32, 64, 3). See the module docstring."""
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 10}
 
     def __init__(
         self,
@@ -106,7 +107,9 @@ class NicoGraspEnv(gym.Env):
             raise ValueError(f"fixed_positions must be None or >= 1, got {fixed_positions}")
         low, high = shoulder_window_deg
         if not -100.0 <= low < high <= 100.0:
-            raise ValueError(f"shoulder_window_deg must lie within ±100° with low < high, got {shoulder_window_deg}")
+            raise ValueError(
+                f"shoulder_window_deg must lie within ±100° with low < high, got {shoulder_window_deg}"
+            )
         self.reward_mode = reward_mode
         self.hand = hand
         self.dense_shaping = dense_shaping
@@ -116,7 +119,9 @@ class NicoGraspEnv(gym.Env):
         self.render_mode = render_mode
         self.window_rad = (math.radians(low), math.radians(high))
         self.step_rad = math.radians(step_deg)
-        self.grasp_threshold = grasp_threshold if grasp_threshold is not None else (0.03 if hand == "auto" else 0.04)
+        self.grasp_threshold = (
+            grasp_threshold if grasp_threshold is not None else (0.03 if hand == "auto" else 0.04)
+        )
         self.topple_tilt_rad = topple_tilt_rad
         self.geometry = geometry or ArmGeometry()
         self.physics = physics or PhysicsSettings()
@@ -167,7 +172,9 @@ class NicoGraspEnv(gym.Env):
 
     def _camera_matrices(self, pose: CameraPose) -> tuple[list[float], list[float]]:
         view = self._client.computeViewMatrix(pose.eye, pose.target, pose.up)
-        proj = self._client.computeProjectionMatrixFOV(pose.fov_deg, OBS_WIDTH / OBS_HEIGHT, pose.near, pose.far)
+        proj = self._client.computeProjectionMatrixFOV(
+            pose.fov_deg, OBS_WIDTH / OBS_HEIGHT, pose.near, pose.far
+        )
         return view, proj
 
     def _sample_positions(self, rng: np.random.Generator, n: int) -> np.ndarray:
@@ -274,7 +281,15 @@ class NicoGraspEnv(gym.Env):
         inv_pos, inv_orn = c.invertTransform(arm_pos, arm_orn)
         rel_pos, rel_orn = c.multiplyTransforms(inv_pos, inv_orn, glass_pos, glass_orn)
         self._grip = c.createConstraint(
-            self._robot, self._shoulder, self._glass, -1, pybullet.JOINT_FIXED, (0, 0, 0), rel_pos, (0, 0, 0), rel_orn
+            self._robot,
+            self._shoulder,
+            self._glass,
+            -1,
+            pybullet.JOINT_FIXED,
+            (0, 0, 0),
+            rel_pos,
+            (0, 0, 0),
+            rel_orn,
         )
         c.changeConstraint(self._grip, maxForce=200.0)
 
@@ -284,7 +299,7 @@ class NicoGraspEnv(gym.Env):
             self._grip = None
 
     def _grasp_attempt(self) -> tuple[bool, bool]:
-        """Close, verify by moving 20° back, and undo on failure (Section 4.1.2). Returns (success, toppled)."""
+        """Close, verify by moving 20° back, undo on failure (Section 4.1.2). Returns (success, toppled)."""
         c = self._client
         q_before = self._shoulder_angle()
         glass_before = c.getBasePositionAndOrientation(self._glass)
@@ -292,7 +307,9 @@ class NicoGraspEnv(gym.Env):
         self._simulate(self.physics.hand_substeps)
         if self._contact_both_sides():
             self._attach_glass()
-        verify = float(np.clip(q_before - self._last_move_sign * self.step_rad, -math.radians(100), math.radians(100)))
+        verify = float(
+            np.clip(q_before - self._last_move_sign * self.step_rad, -math.radians(100), math.radians(100))
+        )
         self._move_shoulder(verify)
         if self._toppled():
             self._release_glass()
@@ -438,14 +455,14 @@ class NicoGraspEnv(gym.Env):
 
     def close(self) -> None:
         if getattr(self, "_client", None) is not None:
-            try:
+            with contextlib.suppress(pybullet.error):
                 self._client.disconnect()
-            except pybullet.error:
-                pass
             self._client = None
 
 
-OVERVIEW_POSE = CameraPose(eye=(0.85, -0.85, 0.75), target=(0.12, -0.12, 0.12), up=(0.0, 0.0, 1.0), fov_deg=45.0)
+OVERVIEW_POSE = CameraPose(
+    eye=(0.85, -0.85, 0.75), target=(0.12, -0.12, 0.12), up=(0.0, 0.0, 1.0), fov_deg=45.0
+)
 """A three-quarter view of robot, table and glass for pictures a person reads."""
 
 

@@ -1,4 +1,6 @@
-"""A scripted oracle for NicoGrasp: reads `info`, turns the shoulder to the glass, closes if the hand is learned.
+"""A scripted oracle for NicoGrasp.
+
+It reads `info`, turns the shoulder to the glass, and closes the hand if the hand is learned.
 
 It exists to prove the task solvable and grasp verification right (tests, `dualsys env check`); no learner
 uses it.

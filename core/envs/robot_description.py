@@ -6,8 +6,9 @@ table; its right arm has one shoulder joint with a ±100° range that sweeps the
 table top; the hand has one thumb and two index fingers with three joints each (Fig. 7a), all driven by one
 tendon command.
 
-Frames. World: x forward (away from the robot, across the table), y to the robot's left, z up; the table top is
-at z = 0. The shoulder joint turns about a vertical axis through `shoulder_xy` (the upper arm hangs along it;
+Frames. World: x forward (away from the robot, across the table), y to the robot's left, z up; the table
+top is at z = 0. The shoulder joint turns about a vertical axis through `shoulder_xy` (the upper arm
+hangs along it;
 the elbow is bent 90° so the forearm lies over the table). At joint angle q the forearm points along
 d(q) = (sin q, −cos q): q = 0 points to the robot's right, q = 90° straight ahead. In the arm link's frame,
 x is radial (along the forearm), y is the tangent in the direction of increasing q, z is up. The palm is a
@@ -71,18 +72,25 @@ def _material_name(rgba: str) -> str:
     return "c_" + rgba.replace(" ", "_").replace(".", "")
 
 
+def _visual(origin: str, geom: str, rgba: str) -> str:
+    material = f'<material name="{_material_name(rgba)}"><color rgba="{rgba}"/></material>'
+    return f"<visual>{origin}{geom}{material}</visual>"
+
+
 def _box(size: tuple[float, float, float], xyz: tuple[float, float, float], rgba: str, collide: bool) -> str:
     geom = f'<geometry><box size="{size[0]:.4f} {size[1]:.4f} {size[2]:.4f}"/></geometry>'
     origin = f'<origin xyz="{xyz[0]:.4f} {xyz[1]:.4f} {xyz[2]:.4f}"/>'
-    visual = f'<visual>{origin}{geom}<material name="{_material_name(rgba)}"><color rgba="{rgba}"/></material></visual>'
+    visual = _visual(origin, geom, rgba)
     collision = f"<collision>{origin}{geom}</collision>" if collide else ""
     return visual + collision
 
 
 def _cylinder(radius: float, length: float, xyz, rpy, rgba: str, collide: bool) -> str:
     geom = f'<geometry><cylinder radius="{radius:.4f}" length="{length:.4f}"/></geometry>'
-    origin = f'<origin xyz="{xyz[0]:.4f} {xyz[1]:.4f} {xyz[2]:.4f}" rpy="{rpy[0]:.4f} {rpy[1]:.4f} {rpy[2]:.4f}"/>'
-    visual = f'<visual>{origin}{geom}<material name="{_material_name(rgba)}"><color rgba="{rgba}"/></material></visual>'
+    origin = (
+        f'<origin xyz="{xyz[0]:.4f} {xyz[1]:.4f} {xyz[2]:.4f}" rpy="{rpy[0]:.4f} {rpy[1]:.4f} {rpy[2]:.4f}"/>'
+    )
+    visual = _visual(origin, geom, rgba)
     collision = f"<collision>{origin}{geom}</collision>" if collide else ""
     return visual + collision
 
@@ -90,7 +98,7 @@ def _cylinder(radius: float, length: float, xyz, rpy, rgba: str, collide: bool) 
 def _sphere(radius: float, xyz, rgba: str) -> str:
     geom = f'<geometry><sphere radius="{radius:.4f}"/></geometry>'
     origin = f'<origin xyz="{xyz[0]:.4f} {xyz[1]:.4f} {xyz[2]:.4f}"/>'
-    return f'<visual>{origin}{geom}<material name="{_material_name(rgba)}"><color rgba="{rgba}"/></material></visual>'
+    return _visual(origin, geom, rgba)
 
 
 def _inertial(mass: float, diag: float = 1e-4) -> str:
@@ -99,6 +107,9 @@ def _inertial(mass: float, diag: float = 1e-4) -> str:
         f'<inertia ixx="{diag}" ixy="0" ixz="0" iyy="{diag}" iyz="0" izz="{diag}"/></inertial>'
     )
 
+
+FINGER_RANGE = math.radians(160)
+"""Finger joints move ±160° (Section 4.1.1)."""
 
 FINGER_NAMES = ("thumb", "index_upper", "index_lower")
 """The three tendon-coupled fingers; each has joints `<name>_1`, `<name>_2`, `<name>_3`."""
@@ -122,7 +133,9 @@ def robot_urdf(geometry: ArmGeometry = ArmGeometry()) -> str:
     parts.append(_cylinder(0.025, 0.06, (sx - 0.12, 0.0, 0.37), (0, 0, 0), NICO_JOINT, collide=False))
     parts.append(_sphere(0.075, (sx - 0.12, 0.0, 0.46), NICO_WHITE))
     parts.append(_box((0.06, 0.06, 0.28), (sx - 0.06, -sy, 0.17), NICO_WHITE, collide=False))
-    parts.append(_box((0.06, 0.06, 0.06), (sx - 0.09, sy + 0.005, g.shoulder_height), NICO_JOINT, collide=False))
+    parts.append(
+        _box((0.06, 0.06, 0.06), (sx - 0.09, sy + 0.005, g.shoulder_height), NICO_JOINT, collide=False)
+    )
     parts.append("</link>")
     # Right arm: one link carrying upper arm, forearm and palm; joint axis vertical through the shoulder.
     parts.append('<link name="right_arm">')
@@ -165,7 +178,7 @@ def robot_urdf(geometry: ArmGeometry = ArmGeometry()) -> str:
                 f'<joint name="{name}_{k}" type="revolute"><parent link="{parent}"/><child link="{link}"/>'
                 f'<origin xyz="{origin[0]:.4f} {origin[1]:.4f} {origin[2]:.4f}"/>'
                 f'<axis xyz="0 0 {axis_sign:.0f}"/>'
-                f'<limit lower="{-math.radians(160):.6f}" upper="{math.radians(160):.6f}" effort="2" velocity="8"/>'
+                f'<limit lower="{-FINGER_RANGE:.6f}" upper="{FINGER_RANGE:.6f}" effort="2" velocity="8"/>'
                 "</joint>"
             )
             parent = link

@@ -8,12 +8,12 @@ tendon command.
 
 Frames. World: x forward (away from the robot, across the table), y to the robot's left, z up; the table
 top is at z = 0. The shoulder joint turns about a vertical axis through `shoulder_xy` (the upper arm
-hangs along it;
-the elbow is bent 90° so the forearm lies over the table). At joint angle q the forearm points along
-d(q) = (sin q, −cos q): q = 0 points to the robot's right, q = 90° straight ahead. In the arm link's frame,
-x is radial (along the forearm), y is the tangent in the direction of increasing q, z is up. The palm is a
-plate facing +y; the index fingers stand on its outer edge and the thumb on its inner edge, all pointing +y
-when open, so the open hand is a U that a glass enters when the shoulder angle increases.
+hangs along it; the elbow is bent 90° so the forearm lies over the table). At joint angle q the forearm
+points along d(q) = (sin q, −cos q): q = 0 points to the robot's right, q = 90° straight ahead. In the
+arm link's frame, x is radial (along the forearm), y is the tangent in the direction of increasing q, z
+is up. The palm is a plate facing +y; the index fingers stand on its outer edge and the thumb on its
+inner edge, all pointing +y when open, so the open hand is a U that a glass enters when the shoulder
+angle increases.
 """
 
 from __future__ import annotations

@@ -35,7 +35,6 @@ import gymnasium as gym
 import numpy as np
 import pybullet
 from gymnasium import spaces
-from pybullet_utils.bullet_client import BulletClient
 
 from core.envs.camera import (
     OBS_HEIGHT,
@@ -46,6 +45,7 @@ from core.envs.camera import (
     apply_sensor_model,
     shifted_pose,
 )
+from core.envs.quiet_bullet import quiet_client
 from core.envs.robot_description import FINGER_NAMES, ArmGeometry
 from core.envs.scene_files import scene_file
 
@@ -130,7 +130,7 @@ class NicoGraspEnv(gym.Env):
         action_dim = 1 if hand == "auto" else 2
         self.action_space = spaces.Box(-1.0, 1.0, (action_dim,), dtype=np.float32)
 
-        self._client = BulletClient(connection_mode=pybullet.DIRECT)
+        self._client = quiet_client()
         self._build_scene()
         self.sim_pose = CameraPose()
         self.sim_lighting = Lighting()

@@ -1,0 +1,387 @@
+"""Typed run configuration: one place for every hyper-parameter default, with named profiles.
+
+A run is fully described by a :class:`Config` (sections ``run``, ``env``, ``net``, ``agent``, ``dual``).
+Defaults live only here. Two profiles exist (see ``docs/config.md`` for the value-by-value sources):
+
+* ``default`` — tuned to learn fast per wall-clock second on a 2-core laptop CPU (strided encoder,
+  per-step updates, annealed exploration noise, τ = 0.005).
+* ``paper``  — every value stated in Section 4.1.1 of the paper; where the text is silent or
+  ambiguous, the authors' released code (stride-1 16→8→4 convolutions, one update per episode with
+  5 critic passes / 15 CACLA passes over a 256-sample minibatch, N(0, 1) noise, τ = 1e-6).
+
+``load_config(profile, overrides, file)`` applies, in order: the profile, then a YAML/JSON file, then
+``key=value`` overrides. Unknown keys raise :class:`ConfigError` naming the key; values are coerced to
+the field's declared type (``"64"`` → 64, ``"true"`` → True, ``"none"`` → None) and checked against
+``Literal`` choices.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import types
+import typing
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+
+
+class ConfigError(ValueError):
+    """A user-caused configuration error (unknown key, bad value, unreadable file)."""
+
+
+@dataclass
+class RunConfig:
+    """What to run and for how long."""
+
+    algo: str = "ddpg"
+    """Method name, looked up in ``core.algos.ALGOS`` (ddpg, cacla, and the dual-system methods)."""
+    seed: int = 0
+    """Seed of the run's one generator family (NumPy, torch, PyBullet resets)."""
+    episodes: int | None = 3000
+    """Training episodes; the run stops at whichever of episodes/steps/max_wall_s comes first."""
+    steps: int | None = None
+    """Training environment steps (None: no step limit)."""
+    max_wall_s: float | None = None
+    """Wall-clock budget in seconds for training (None: none). Checked between episodes."""
+    eval_every: int = 100
+    """Greedy evaluation every N training episodes (0: only the final evaluation)."""
+    eval_episodes: int = 25
+    """Episodes per greedy evaluation (the paper's real-robot protocol uses 25)."""
+    final_eval: bool = True
+    """Run one greedy evaluation when training ends normally (gives summary.json its success_rate)."""
+    checkpoint_every: int = 100
+    """Write checkpoints/latest.pt (+ the replay buffer) every N episodes and at the end."""
+    device: str = "cpu"
+    """torch device for the networks."""
+    num_threads: int = 2
+    """torch intra-op threads (the reference machine has 2 cores)."""
+    smoothing_window: int = 250
+    """Sliding window (episodes) of the learning-curve PNG (Fig. 8: 250 dense, 375 sparse)."""
+
+
+@dataclass
+class EnvConfig:
+    """Keyword arguments of ``core.envs.NicoGraspEnv`` (see the environment contract)."""
+
+    reward_mode: Literal["dense", "sparse"] = "dense"
+    """Extrinsic reward of Section 4.1.2: dense shaping or 0 outside grasp/topple."""
+    hand: Literal["auto", "learned"] = "auto"
+    """auto: 1-D shoulder action, grasp starts automatically (released code); learned: 2-D action."""
+    dense_shaping: Literal["distance", "squared"] = "distance"
+    """−d (paper text) or −d² (released code)."""
+    fixed_positions: int | None = None
+    """None: new random graspable glass position every reset (paper text); N: N seeded positions cycled."""
+    max_steps: int = 50
+    """Episode length limit (truncation)."""
+    domain: Literal["sim", "real"] = "sim"
+    """Which camera renders observations."""
+
+
+@dataclass
+class NetConfig:
+    """Encoder f_ω, decoder g, critic Q(φ, a) and actor μ(φ) of Fig. 1."""
+
+    arch: Literal["paper", "strided"] = "strided"
+    """paper: stride-1 3×3 convs (released code's 16→8→4, dense to φ); strided: stride-2 3×3 convs,
+    about 30× fewer multiply-adds per image, which is what lets per-step updates run on a laptop CPU."""
+    conv_channels: tuple[int, ...] = (16, 32, 32)
+    """Encoder conv channels (decoder mirrors them)."""
+    latent_dim: int = 32
+    """Size of the latent φ (Fig. 1: 32)."""
+    critic_hidden: int = 20
+    """Critic head hidden units (concat(φ, a) → hidden ReLU → 1)."""
+    actor_hidden: int = 20
+    """Actor hidden units (φ → hidden → tanh action)."""
+    actor_activation: Literal["relu", "tanh"] = "relu"
+    """Actor hidden activation: relu (paper text: ReLU everywhere but outputs) or tanh (released code)."""
+
+
+@dataclass
+class AgentConfig:
+    """The model-free learner: critic-autoencoder (Eq. 4, Eq. 1) and actor update (Eq. 2 or Eq. 3)."""
+
+    ac: Literal["ddpg", "cacla"] = "ddpg"
+    """Actor update rule: DDPG (Eq. 2) or off-policy CACLA (Eq. 3). Set from --algo for ddpg/cacla."""
+    gamma: float = 0.99
+    """Discount factor γ of Eq. 1."""
+    tau: float = 0.005
+    """Target-network update rate τ (θ' ← τθ + (1−τ)θ')."""
+    critic_lr: float = 1e-3
+    """Adam learning rate of the critic-autoencoder (encoder, decoder, critic head)."""
+    actor_lr: float = 1e-4
+    """Adam learning rate of the actor."""
+    lambda_rec: float = 0.1
+    """λ_rec of Eq. 4."""
+    lambda_q: float = 1.0
+    """λ_Q of Eq. 4."""
+    batch_size: int = 64
+    """Minibatch size sampled from the pixel replay buffer."""
+    buffer_size: int = 100_000
+    """Pixel replay capacity in transitions."""
+    learning_starts: int = 500
+    """Environment steps collected before the first update."""
+    update_schedule: Literal["per_step", "per_episode"] = "per_step"
+    """per_step: Algorithm 2 lines 26-28 after every env step; per_episode: the released code."""
+    updates_per_step: int = 1
+    """Minibatch updates after each env step (per_step schedule)."""
+    updates_per_episode: int = 1
+    """Minibatch updates after each episode (per_episode schedule)."""
+    critic_passes: int = 1
+    """Gradient steps of Eq. 4 on one minibatch (released code: 5)."""
+    ddpg_actor_passes: int = 1
+    """DDPG policy-gradient steps on one minibatch (released code: 5)."""
+    cacla_actor_passes: int = 1
+    """CACLA regression steps over the minibatch's δ > 0 samples (released code: 15)."""
+    noise_std: float = 0.5
+    """Initial std of the Gaussian exploration noise added to the action (paper: N(0, 1))."""
+    noise_final_std: float = 0.1
+    """Std after annealing (equal to noise_std: no annealing)."""
+    noise_anneal_steps: int = 30_000
+    """Environment steps over which the std decays linearly to noise_final_std."""
+
+
+@dataclass
+class DualConfig:
+    """Dual-system section (ITM, learning progress, world-model bank, meta-controller, imagination).
+
+    Used by the dual-system methods (im2c, i2a, mve, cmc, la-imagination); plain ddpg/cacla ignore it.
+    """
+
+    e_max: float = 6.0
+    """ITM mapping resolution e_max (Section 4.1.1)."""
+    itm_distance: Literal["l2", "squared"] = "l2"
+    """Distance compared with e_max: l2 (released code) or squared L2 (paper text, Section 2.3.1)."""
+    lp_sigma: int = 40
+    """σ: window of recent prediction errors per node (Eq. 8)."""
+    lp_window: int = 20
+    """W: history of window means used by LP (Eq. 9)."""
+    lp_normalise: bool = True
+    """Divide LP by the max of the history of means (released code)."""
+    error_norm: Literal["l2", "squared"] = "l2"
+    """Prediction error as norms (released code) or squared norms (paper Eq. 8)."""
+    intrinsic_scale: float = 1.0
+    """Scale of r_int = −LP added to the extrinsic reward."""
+    model_hidden: int = 20
+    """Hidden tanh units of each local world model M_n, R_n."""
+    model_lr: float = 1e-3
+    """Adam learning rate of the local models."""
+    model_batch: int = 1
+    """Samples per local-model update (released code: the one real transition)."""
+    new_node_model: Literal["fresh", "parent"] = "fresh"
+    """A new ITM node's model: freshly initialised (released code) or copied from its parent node."""
+    d_max: int = 6
+    """Maximum planning depth D_max (Algorithm 1)."""
+    plan_steps: int = 10
+    """K gradient steps of plan optimisation (Eq. 7)."""
+    plan_lr: float = 1e-3
+    """α_plan of Eq. 7."""
+    plan_objective: Literal["sum", "per_step"] = "sum"
+    """sum: (R* − Σ r̂)² (paper Eq. 6); per_step: ½ Σ (1 − r̂)² (released code)."""
+    r_star: float = 1.0
+    """Desired return R* of Eq. 6."""
+    pixel_buffer_size: int = 60_000
+    """I2A pixel replay capacity B_pixel."""
+    latent_buffer_size: int = 200_000
+    """I2A latent replay capacity B_latent."""
+    latent_batch_size: int = 64
+    """Minibatch size sampled from B_latent."""
+    fixed_horizon: int = 2
+    """Fixed model horizon of the baselines (MVE: 2, CMC: 3)."""
+    imagination_prob_scale: float = 1.0
+    """LA-Imagination: scale of the rollout probability (inversely proportional to local error)."""
+
+
+@dataclass
+class Config:
+    """A full run configuration. ``to_dict``/``from_dict`` round-trip through plain JSON types."""
+
+    run: RunConfig = field(default_factory=RunConfig)
+    env: EnvConfig = field(default_factory=EnvConfig)
+    net: NetConfig = field(default_factory=NetConfig)
+    agent: AgentConfig = field(default_factory=AgentConfig)
+    dual: DualConfig = field(default_factory=DualConfig)
+
+    def to_dict(self) -> dict[str, dict[str, Any]]:
+        """Plain nested dict (tuples become lists) suitable for YAML/JSON."""
+        out: dict[str, dict[str, Any]] = {}
+        for section in dataclasses.fields(self):
+            values = dataclasses.asdict(getattr(self, section.name))
+            out[section.name] = {k: list(v) if isinstance(v, tuple) else v for k, v in values.items()}
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], base: Config | None = None) -> Config:
+        """Build a config from a (possibly partial) nested dict on top of ``base`` (default: defaults)."""
+        config = _deep_copy(base) if base is not None else cls()
+        _apply_mapping(config, data)
+        return config
+
+    def to_yaml(self) -> str:
+        """The resolved config as YAML text (what a run writes as config.yaml)."""
+        return yaml.safe_dump(self.to_dict(), sort_keys=False)
+
+
+def _deep_copy(config: Config) -> Config:
+    return Config(
+        **{f.name: dataclasses.replace(getattr(config, f.name)) for f in dataclasses.fields(config)}
+    )
+
+
+def _paper_profile() -> Config:
+    """Section 4.1.1 values; the released code where the text is silent (see docs/config.md)."""
+    return Config(
+        run=RunConfig(episodes=10_000, eval_every=250, checkpoint_every=250),
+        env=EnvConfig(dense_shaping="distance", fixed_positions=None, max_steps=50),
+        net=NetConfig(arch="paper", conv_channels=(16, 8, 4), latent_dim=32, critic_hidden=20,
+                      actor_hidden=20, actor_activation="relu"),
+        agent=AgentConfig(
+            gamma=0.99, tau=1e-6, critic_lr=1e-3, actor_lr=1e-4, lambda_rec=0.1, lambda_q=1.0,
+            batch_size=256, buffer_size=100_000, learning_starts=256, update_schedule="per_episode",
+            updates_per_episode=1, critic_passes=5, ddpg_actor_passes=5, cacla_actor_passes=15,
+            noise_std=1.0, noise_final_std=1.0, noise_anneal_steps=1,
+        ),
+        dual=DualConfig(),
+    )
+
+
+PROFILES: dict[str, typing.Callable[[], Config]] = {
+    "default": Config,
+    "paper": _paper_profile,
+}
+"""Named profiles: a zero-argument factory per name (each call returns a fresh Config)."""
+
+
+def load_config(
+    profile: str = "default",
+    overrides: Iterable[str] = (),
+    file: Path | str | None = None,
+) -> Config:
+    """Resolve a config: profile, then ``file`` (YAML or JSON, nested sections), then ``key=value`` overrides.
+
+    Raises ConfigError for an unknown profile, an unreadable file, an unknown key or a bad value.
+    """
+    if profile not in PROFILES:
+        raise ConfigError(f"unknown profile {profile!r} (choose from {', '.join(sorted(PROFILES))})")
+    config = PROFILES[profile]()
+    if file is not None:
+        config = Config.from_dict(read_config_file(Path(file)), base=config)
+    for item in overrides:
+        key, sep, raw = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"override {item!r} is not of the form section.key=value")
+        set_value(config, key.strip(), raw.strip())
+    return config
+
+
+def read_config_file(path: Path) -> dict[str, Any]:
+    """Read a YAML or JSON config file into a nested dict."""
+    if not path.is_file():
+        raise ConfigError(f"config file not found: {path}")
+    text = path.read_text()
+    try:
+        data = json.loads(text) if path.suffix.lower() == ".json" else yaml.safe_load(text)
+    except (json.JSONDecodeError, yaml.YAMLError) as exc:
+        raise ConfigError(f"cannot parse config file {path}: {exc}".splitlines()[0]) from exc
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"config file {path} must hold a mapping of sections")
+    return data
+
+
+def set_value(config: Config, dotted_key: str, raw: Any) -> None:
+    """Set ``section.field`` on ``config`` in place, coercing ``raw`` to the field's type."""
+    section_name, _, field_name = dotted_key.partition(".")
+    section = _section(config, section_name, dotted_key)
+    if not field_name or "." in field_name:
+        raise ConfigError(f"unknown config key {dotted_key!r} (use section.field, e.g. agent.batch_size)")
+    hints = typing.get_type_hints(type(section))
+    if field_name not in hints:
+        known = ", ".join(f.name for f in dataclasses.fields(section))
+        raise ConfigError(f"unknown config key {dotted_key!r} (fields of {section_name}: {known})")
+    setattr(section, field_name, coerce(raw, hints[field_name], dotted_key))
+
+
+def _section(config: Config, name: str, key: str) -> Any:
+    names = [f.name for f in dataclasses.fields(config)]
+    if name not in names:
+        raise ConfigError(f"unknown config key {key!r} (sections: {', '.join(names)})")
+    return getattr(config, name)
+
+
+def _apply_mapping(config: Config, data: Mapping[str, Any]) -> None:
+    for section_name, values in data.items():
+        _section(config, str(section_name), str(section_name))
+        if not isinstance(values, Mapping):
+            raise ConfigError(f"config section {section_name!r} must be a mapping")
+        for field_name, value in values.items():
+            set_value(config, f"{section_name}.{field_name}", value)
+
+
+_NONE_WORDS = {"none", "null", "~", ""}
+_TRUE_WORDS = {"true", "yes", "on", "1"}
+_FALSE_WORDS = {"false", "no", "off", "0"}
+
+
+def coerce(raw: Any, annotation: Any, key: str) -> Any:
+    """Coerce a raw value (string from the CLI, or a YAML/JSON scalar) to ``annotation``."""
+    origin = typing.get_origin(annotation)
+    args = typing.get_args(annotation)
+    if origin in (typing.Union, types.UnionType):
+        if type(None) in args and (raw is None or (isinstance(raw, str) and raw.lower() in _NONE_WORDS)):
+            return None
+        errors = []
+        for arg in args:
+            if arg is type(None):
+                continue
+            try:
+                return coerce(raw, arg, key)
+            except ConfigError as exc:
+                errors.append(str(exc))
+        raise ConfigError(errors[0] if errors else f"bad value for {key}: {raw!r}")
+    if origin is Literal:
+        value = str(raw) if not isinstance(raw, str) else raw
+        if value not in args:
+            raise ConfigError(f"bad value for {key}: {raw!r} (choose from {', '.join(map(str, args))})")
+        return value
+    if origin is tuple:
+        items = raw
+        if isinstance(raw, str):
+            items = [s for s in raw.strip("()[] ").split(",") if s.strip()]
+        if not isinstance(items, list | tuple):
+            raise ConfigError(f"bad value for {key}: {raw!r} (expected a comma-separated list)")
+        return tuple(coerce(item, args[0], key) for item in items)
+    if annotation is bool:
+        if isinstance(raw, bool):
+            return raw
+        if isinstance(raw, str) and raw.lower() in _TRUE_WORDS | _FALSE_WORDS:
+            return raw.lower() in _TRUE_WORDS
+        raise ConfigError(f"bad value for {key}: {raw!r} (expected true/false)")
+    if annotation is int:
+        if isinstance(raw, bool):
+            raise ConfigError(f"bad value for {key}: {raw!r} (expected an integer)")
+        if isinstance(raw, int):
+            return raw
+        try:
+            as_float = float(str(raw).replace("_", ""))
+        except ValueError:
+            raise ConfigError(f"bad value for {key}: {raw!r} (expected an integer)") from None
+        if not as_float.is_integer():
+            raise ConfigError(f"bad value for {key}: {raw!r} (expected an integer)")
+        return int(as_float)
+    if annotation is float:
+        if isinstance(raw, bool):
+            raise ConfigError(f"bad value for {key}: {raw!r} (expected a number)")
+        try:
+            return float(str(raw).replace("_", "")) if isinstance(raw, str) else float(raw)
+        except (TypeError, ValueError):
+            raise ConfigError(f"bad value for {key}: {raw!r} (expected a number)") from None
+    if annotation is str:
+        if isinstance(raw, dict | list):
+            raise ConfigError(f"bad value for {key}: {raw!r} (expected a string)")
+        return str(raw)
+    raise ConfigError(f"config key {key} has an unsupported type {annotation!r}")  # pragma: no cover

@@ -1,0 +1,1 @@
+"""The FastAPI layer: one router per resource, shared dependencies, errors, limits."""

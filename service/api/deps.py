@@ -1,0 +1,50 @@
+"""Shared dependencies: the service state and the bearer-token check (FastAPI template `deps.py`)."""
+
+from __future__ import annotations
+
+import secrets
+from dataclasses import dataclass
+from typing import Annotated
+
+from fastapi import Depends, HTTPException, Request, status
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+
+from registry import PolicyRegistry
+from registry.database import Database
+from service.settings import ServiceSettings
+from service.supervisor import Supervisor
+
+
+@dataclass
+class ServiceState:
+    settings: ServiceSettings
+    database: Database
+    registry: PolicyRegistry
+    supervisor: Supervisor | None
+
+
+def get_state(request: Request) -> ServiceState:
+    return request.app.state.service
+
+
+StateDep = Annotated[ServiceState, Depends(get_state)]
+_bearer = HTTPBearer(auto_error=False, description="DUALSYS_TOKEN, required by every mutating endpoint.")
+
+
+def require_token(
+    state: StateDep, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]
+) -> None:
+    """401 unless the request carries `Authorization: Bearer <DUALSYS_TOKEN>` (when a token is set)."""
+    expected = state.settings.token.get_secret_value() if state.settings.token else ""
+    if not expected:
+        return
+    given = credentials.credentials if credentials is not None else ""
+    if not secrets.compare_digest(given.encode(), expected.encode()):
+        raise HTTPException(
+            status_code=status.HTTP_401_UNAUTHORIZED,
+            detail="missing or invalid bearer token (send Authorization: Bearer $DUALSYS_TOKEN)",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+
+
+MutationAuth = Depends(require_token)

@@ -1,0 +1,84 @@
+"""Every error is JSON: `{"detail": "<one line naming the field or reason>", "errors": [...]}`."""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from registry.errors import (
+    InvalidName,
+    InvalidRunDirectory,
+    PathOutsideRoot,
+    PolicyNotFound,
+    RegistryError,
+    VersionNotFound,
+)
+from service.errors import ServiceError
+from service.schemas.jobs import JobKindName
+
+log = logging.getLogger("dualsys.service.api")
+_KINDS = set(JobKindName.__args__)  # type: ignore[attr-defined]
+_LOCATIONS = {"body", "query", "path", "header", "cookie"}
+
+
+def field_path(loc: tuple[Any, ...] | list[Any]) -> str:
+    """`('body', 'train', 'spec', 'episodes')` → `spec.episodes` (drops the location and union tag)."""
+    parts = list(loc)
+    if parts and parts[0] in _LOCATIONS:
+        where = parts.pop(0)
+        if where == "body" and parts and parts[0] in _KINDS and len(parts) > 1:
+            parts.pop(0)
+    text = ".".join(str(p) for p in parts if not (isinstance(p, str) and p.startswith("function-")))
+    return text or "body"
+
+
+def error_body(detail: str, errors: list[dict[str, str]] | None = None) -> dict[str, Any]:
+    return {"detail": detail, "errors": errors or []}
+
+
+def _registry_status(error: RegistryError) -> int:
+    if isinstance(error, PolicyNotFound | VersionNotFound):
+        return 404
+    if isinstance(error, PathOutsideRoot):
+        return 400
+    if isinstance(error, InvalidName | InvalidRunDirectory):
+        return 422
+    return 400
+
+
+def install_error_handlers(app: FastAPI) -> None:
+    @app.exception_handler(RequestValidationError)
+    async def _validation(request: Request, error: RequestValidationError) -> JSONResponse:
+        errors = []
+        for item in error.errors():
+            message = str(item.get("msg", "invalid value")).removeprefix("Value error, ")
+            errors.append({"field": field_path(item.get("loc", ())), "message": message})
+        first = errors[0] if errors else {"field": "body", "message": "invalid request"}
+        detail = f"{first['field']}: {first['message']}"
+        if len(errors) > 1:
+            detail += f" (and {len(errors) - 1} more)"
+        return JSONResponse(status_code=422, content=error_body(detail, errors))
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(request: Request, error: StarletteHTTPException) -> JSONResponse:
+        detail = error.detail if isinstance(error.detail, str) else str(error.detail)
+        return JSONResponse(status_code=error.status_code, content=error_body(detail), headers=error.headers)
+
+    @app.exception_handler(ServiceError)
+    async def _service(request: Request, error: ServiceError) -> JSONResponse:
+        errors = [{"field": error.field, "message": str(error)}] if error.field else []
+        return JSONResponse(status_code=error.status_code, content=error_body(str(error), errors))
+
+    @app.exception_handler(RegistryError)
+    async def _registry(request: Request, error: RegistryError) -> JSONResponse:
+        return JSONResponse(status_code=_registry_status(error), content=error_body(str(error)))
+
+    @app.exception_handler(Exception)
+    async def _unexpected(request: Request, error: Exception) -> JSONResponse:
+        log.exception("unhandled error on %s %s", request.method, request.url.path)
+        return JSONResponse(status_code=500, content=error_body(f"internal error: {type(error).__name__}"))

@@ -1,0 +1,47 @@
+"""Turning job rows into their public schemas."""
+
+from __future__ import annotations
+
+from service.models import Job, JobArtifact, JobMetric
+from service.schemas.jobs import ArtifactPublic, JobProgress, JobPublic, MetricPublic
+
+
+def job_public(job: Job) -> JobPublic:
+    return JobPublic(
+        id=job.id,
+        kind=job.kind,  # type: ignore[arg-type]
+        status=job.status,  # type: ignore[arg-type]
+        spec=job.spec,
+        resolved=job.resolved,
+        reason=job.reason,
+        summary=job.summary,
+        progress=JobProgress(episode=job.progress_episode, total=job.progress_total),
+        attempt=job.attempt,
+        resume=job.resume,
+        cancel_requested=job.cancel_requested,
+        worker_pid=job.worker_pid,
+        created_at=job.created_at,
+        started_at=job.started_at,
+        finished_at=job.finished_at,
+        heartbeat_at=job.heartbeat_at,
+    )
+
+
+def metric_public(row: JobMetric) -> MetricPublic:
+    return MetricPublic(
+        episode=row.episode,
+        global_step=row.global_step,
+        attempt=row.attempt,
+        data=row.data,
+        recorded_at=row.recorded_at,
+    )
+
+
+def artifact_public(job_id: int, row: JobArtifact) -> ArtifactPublic:
+    return ArtifactPublic(
+        name=row.name,
+        kind=row.kind,
+        size=row.size,
+        modified_at=row.modified_at,
+        url=f"/jobs/{job_id}/artifacts/{row.name}",
+    )

@@ -1,0 +1,175 @@
+"""`/jobs`: submit, list, show, cancel, delete, metrics, events, artifacts."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Header, HTTPException, Query, Request, Response, status
+from fastapi.responses import FileResponse, JSONResponse, StreamingResponse
+
+from registry.artifact_store import ArtifactStore
+from service import job_store
+from service.api.deps import MutationAuth, StateDep
+from service.api.events import job_events, parse_last_event_id
+from service.api.presenters import artifact_public, job_public, metric_public
+from service.job_kinds import job_kind
+from service.models import FINISHED_STATUSES
+from service.schemas.errors import ErrorPublic
+from service.schemas.jobs import (
+    ArtifactsPublic,
+    JobCreate,
+    JobKindName,
+    JobPublic,
+    JobsPublic,
+    JobStatus,
+    MetricsPublic,
+)
+
+router = APIRouter(prefix="/jobs", tags=["jobs"])
+ERRORS = {
+    401: {"model": ErrorPublic},
+    404: {"model": ErrorPublic},
+    409: {"model": ErrorPublic},
+    413: {"model": ErrorPublic},
+    422: {"model": ErrorPublic},
+}
+JobId = Annotated[int, Query(ge=1)]
+
+
+@router.post(
+    "",
+    status_code=status.HTTP_202_ACCEPTED,
+    response_model=JobPublic,
+    dependencies=[MutationAuth],
+    responses={**ERRORS, 200: {"model": JobPublic, "description": "Replay of an Idempotency-Key"}},
+)
+def submit_job(
+    body: JobCreate,
+    state: StateDep,
+    idempotency_key: Annotated[str | None, Header(max_length=128)] = None,
+) -> JSONResponse:
+    """Queue a job; answers 202 with its id at once. A worker process does the work."""
+    kind = job_kind(body.kind)
+    submission = kind.prepare(body.spec, state.registry)
+    job, created = job_store.create_job(
+        state.database,
+        kind=body.kind,
+        spec=body.spec.model_dump(mode="json"),
+        resolved=submission.resolved,
+        progress_total=submission.progress_total,
+        idempotency_key=idempotency_key,
+    )
+    if state.supervisor is not None:
+        state.supervisor.wake()
+    return JSONResponse(
+        status_code=status.HTTP_202_ACCEPTED if created else status.HTTP_200_OK,
+        content=job_public(job).model_dump(mode="json"),
+        headers={"Location": f"/jobs/{job.id}"},
+    )
+
+
+@router.get("", response_model=JobsPublic, responses=ERRORS)
+def list_jobs(
+    state: StateDep,
+    status_filter: Annotated[JobStatus | None, Query(alias="status")] = None,
+    kind: JobKindName | None = None,
+    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
+    limit: Annotated[int, Query(ge=1, le=500)] = 50,
+) -> JobsPublic:
+    """Jobs, newest first, filtered by status and kind, paged with offset/limit."""
+    rows, count = job_store.list_jobs(
+        state.database, status=status_filter, kind=kind, offset=offset, limit=limit
+    )
+    return JobsPublic(data=[job_public(j) for j in rows], count=count)
+
+
+@router.get("/{job_id}", response_model=JobPublic, responses=ERRORS)
+def get_job(job_id: int, state: StateDep) -> JobPublic:
+    return job_public(job_store.get_job(state.database, job_id=job_id))
+
+
+@router.post(
+    "/{job_id}/cancel",
+    status_code=status.HTTP_202_ACCEPTED,
+    response_model=JobPublic,
+    dependencies=[MutationAuth],
+    responses=ERRORS,
+)
+def cancel_job(job_id: int, state: StateDep) -> JobPublic:
+    """Cancel: a queued job at once; a running one's process is ended. 409 for a finished job."""
+    job = job_store.request_cancel(state.database, job_id=job_id)
+    if state.supervisor is not None:
+        state.supervisor.wake()
+    return job_public(job)
+
+
+@router.delete(
+    "/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[MutationAuth], responses=ERRORS
+)
+def delete_job(job_id: int, state: StateDep) -> Response:
+    """Delete a finished job, its metrics and its run directory. 409 unless finished."""
+    job = job_store.delete_job(state.database, job_id=job_id)
+    store = state.registry.store
+    ArtifactStore.remove_tree(store.confine(job.run_dir))
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+
+@router.get("/{job_id}/metrics", response_model=MetricsPublic, responses=ERRORS)
+def job_metrics(
+    job_id: int,
+    state: StateDep,
+    since: Annotated[int, Query(ge=0, le=10**9, description="Only episodes after this one.")] = 0,
+    limit: Annotated[int, Query(ge=1, le=10_000)] = 1000,
+) -> MetricsPublic:
+    rows = job_store.list_metrics(state.database, job_id=job_id, since=since, limit=limit)
+    return MetricsPublic(data=[metric_public(r) for r in rows], count=len(rows))
+
+
+@router.get(
+    "/{job_id}/events",
+    responses={**ERRORS, 200: {"content": {"text/event-stream": {}}, "description": "Server-sent events"}},
+    response_class=StreamingResponse,
+)
+async def job_event_stream(
+    job_id: int,
+    request: Request,
+    state: StateDep,
+    since: Annotated[int, Query(ge=0, le=10**9)] = 0,
+    last_event_id: Annotated[str | None, Header(max_length=32)] = None,
+) -> StreamingResponse:
+    """Live progress: `status`, `metric` (id = episode) and `end` events."""
+    job_store.get_job(state.database, job_id=job_id)  # 404 before the stream starts
+    resume_from = parse_last_event_id(last_event_id)
+    start = max(since, resume_from) if resume_from is not None else since
+    return StreamingResponse(
+        job_events(request, state.database, job_id, start),
+        media_type="text/event-stream",
+        headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"},
+    )
+
+
+@router.get("/{job_id}/artifacts", response_model=ArtifactsPublic, responses=ERRORS)
+def job_artifacts(job_id: int, state: StateDep) -> ArtifactsPublic:
+    """Files recorded for the job: checkpoints as they are written, every file once it ends."""
+    rows = job_store.list_artifacts(state.database, job_id=job_id)
+    return ArtifactsPublic(data=[artifact_public(job_id, r) for r in rows], count=len(rows))
+
+
+@router.get(
+    "/{job_id}/artifacts/{name:path}",
+    response_class=FileResponse,
+    responses={**ERRORS, 400: {"model": ErrorPublic}, 200: {"content": {"application/octet-stream": {}}}},
+)
+def download_job_artifact(job_id: int, name: str, state: StateDep) -> FileResponse:
+    """Download one file of the job's run directory; paths cannot leave it."""
+    job = job_store.get_job(state.database, job_id=job_id)
+    store = state.registry.store
+    run_dir = store.confine(job.run_dir)
+    path = store.confine(name, base=run_dir)
+    if any(part.startswith(".") for part in path.relative_to(run_dir).parts) or not path.is_file():
+        raise HTTPException(status_code=404, detail=f"job {job_id} has no artifact {name!r}")
+    return FileResponse(path, filename=path.name, media_type="application/octet-stream")
+
+
+def job_finished(status_text: str) -> bool:
+    return status_text in FINISHED_STATUSES

@@ -1,0 +1,63 @@
+"""The FastAPI application factory: `create_app(settings)`.
+
+Start-up (lifespan): open the database, run `alembic upgrade head` (registry + service tables),
+open the registry, start the supervisor (unless `DUALSYS_RUN_JOBS=false`, for an API-only
+replica). Shutdown: the supervisor stops its workers and re-queues their jobs to resume.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+from starlette.concurrency import run_in_threadpool
+
+from registry import PolicyRegistry
+from registry.artifact_store import ArtifactStore
+from registry.database import Database
+from service.api.deps import ServiceState
+from service.api.errors import install_error_handlers
+from service.api.routes import health, jobs, policies
+from service.api.size_limit import BodySizeLimit
+from service.migrate import upgrade_service
+from service.settings import ServiceSettings
+from service.supervisor import Supervisor
+
+log = logging.getLogger("dualsys.service")
+
+
+def create_app(settings: ServiceSettings | None = None) -> FastAPI:
+    settings = settings or ServiceSettings()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        database = Database(settings.database_url)
+        await run_in_threadpool(upgrade_service, database.engine)
+        registry = PolicyRegistry(database, ArtifactStore(settings.artifacts))
+        supervisor = Supervisor(settings, database) if settings.run_jobs else None
+        if supervisor is not None:
+            await run_in_threadpool(supervisor.start)
+        app.state.service = ServiceState(
+            settings=settings, database=database, registry=registry, supervisor=supervisor
+        )
+        try:
+            yield
+        finally:
+            if supervisor is not None:
+                await run_in_threadpool(supervisor.stop)
+            database.dispose()
+
+    app = FastAPI(
+        title="dualsys job service",
+        summary="Queue training, alignment, evaluation and export jobs; a registry of versioned policies.",
+        version="0.1.0",
+        lifespan=lifespan,
+    )
+    app.add_middleware(BodySizeLimit, max_bytes=settings.max_request_bytes)
+    install_error_handlers(app)
+    app.include_router(jobs.router)
+    app.include_router(policies.router)
+    app.include_router(health.router)
+    return app

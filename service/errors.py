@@ -1,0 +1,37 @@
+"""Service errors a client can cause; the API maps each to a status code and a JSON body."""
+
+from __future__ import annotations
+
+
+class ServiceError(Exception):
+    """A user-level error with an HTTP status; `field` names the offending request field if any."""
+
+    status_code = 400
+
+    def __init__(self, message: str, *, field: str | None = None) -> None:
+        super().__init__(message)
+        self.field = field
+
+
+class JobNotFound(ServiceError):
+    status_code = 404
+
+
+class JobConflict(ServiceError):
+    """The job's state forbids the request (cancel a finished job, delete a running one)."""
+
+    status_code = 409
+
+
+class SpecRejected(ServiceError):
+    """A spec that is well-formed but cannot run (unknown policy, missing pairs folder)."""
+
+    status_code = 422
+
+
+class JobKindUnavailable(RuntimeError):
+    """The library function a job kind needs is not installed; the job fails with this reason."""
+
+
+class LostOwnership(RuntimeError):
+    """A worker found that its job was recovered or cancelled by someone else: it must stop."""

@@ -1,0 +1,18 @@
+"""Executors run claimed jobs: `local` (a process per job) and `ray` (a Ray task per job)."""
+
+from __future__ import annotations
+
+from service.executors.base import Executor, WorkerExit
+
+__all__ = ["Executor", "WorkerExit", "make_executor"]
+
+
+def make_executor(settings, owner: str) -> Executor:  # type: ignore[no-untyped-def]
+    """The executor `settings.executor` names (Ray is imported only when asked for)."""
+    if settings.executor == "ray":
+        from service.executors.ray_executor import RayExecutor
+
+        return RayExecutor(settings, owner)
+    from service.executors.local import LocalExecutor
+
+    return LocalExecutor(settings, owner)

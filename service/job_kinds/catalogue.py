@@ -1,0 +1,39 @@
+"""The table of job kinds the service runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from service.job_kinds.base import JobKind, after_nothing, prepare_nothing
+from service.job_kinds.deployment import (
+    attach_onnx,
+    prepare_align,
+    register_aligned,
+    run_align,
+    run_eval,
+    run_export,
+)
+from service.job_kinds.policy_input import resolve_policy_input
+from service.job_kinds.probe import run_probe
+from service.job_kinds.train import prepare_train, run_train
+from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec, ProbeSpec, TrainSpec
+
+JOB_KINDS: dict[str, JobKind] = {
+    "train": JobKind("train", TrainSpec, run_train, True, prepare_train, after_nothing),
+    "align": JobKind("align", AlignSpec, run_align, False, prepare_align, register_aligned),
+    "eval": JobKind("eval", EvalSpec, run_eval, False, resolve_policy_input, after_nothing),
+    "export": JobKind("export", ExportSpec, run_export, False, resolve_policy_input, attach_onnx),
+    "probe": JobKind("probe", ProbeSpec, run_probe, True, prepare_nothing, after_nothing),
+}
+
+
+def job_kind(name: str) -> JobKind:
+    try:
+        return JOB_KINDS[name]
+    except KeyError:
+        raise ValueError(f"unknown job kind {name!r} (choose from {', '.join(JOB_KINDS)})") from None
+
+
+def can_resume(kind: JobKind, run_dir: Path) -> bool:
+    """An interrupted job resumes when its kind supports it and a checkpoint was written."""
+    return kind.resumable and (run_dir / "checkpoints").is_dir() and any((run_dir / "checkpoints").iterdir())

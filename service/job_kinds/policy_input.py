@@ -1,0 +1,27 @@
+"""Submission-time resolution of a spec's `policy` reference to one registry version."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel
+
+from registry import PolicyRegistry, RegistryError
+from service.errors import SpecRejected
+from service.job_kinds.base import Submission
+
+
+def resolve_policy_input(spec: BaseModel, registry: PolicyRegistry) -> Submission:
+    """`name@alias` → `name@version` plus its checkpoint/ONNX paths, fixed for the job's lifetime."""
+    reference = spec.policy
+    try:
+        record = registry.resolve(reference)
+    except RegistryError as error:
+        raise SpecRejected(f"spec.policy: {error}", field="spec.policy") from error
+    if record.checkpoint is None and record.onnx is None:
+        raise SpecRejected(f"spec.policy: {record.ref} has no checkpoint", field="spec.policy")
+    return Submission(
+        resolved={
+            "policy": record.ref,
+            "checkpoint": str(record.checkpoint) if record.checkpoint else None,
+            "onnx": str(record.onnx) if record.onnx else None,
+        }
+    )

@@ -1,0 +1,54 @@
+"""The `train` kind: `core.trainer.train` on the spec's resolved config (same as `dualsys train`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel
+
+from registry import PolicyRegistry
+from service.errors import JobKindUnavailable, SpecRejected
+from service.job_kinds.base import JobContext, Submission
+from service.schemas.specs import TrainSpec
+
+LATEST_CHECKPOINT = Path("checkpoints") / "latest.pt"
+
+
+def prepare_train(spec: BaseModel, registry: PolicyRegistry) -> Submission:
+    """Resolve the config now, so a bad combination is a 422 and the job records what it ran."""
+    assert isinstance(spec, TrainSpec)
+    from core.config import ConfigError, load_config
+
+    try:
+        config = load_config(spec.profile, spec.config_overrides())
+    except ConfigError as error:
+        raise SpecRejected(f"spec: {error}", field="spec") from error
+    return Submission(resolved={"config": config.to_dict()}, progress_total=config.run.episodes)
+
+
+def run_train(context: JobContext) -> dict[str, Any]:
+    spec = context.spec
+    assert isinstance(spec, TrainSpec)
+    try:
+        from core.trainer import train
+    except ImportError as error:
+        raise JobKindUnavailable(
+            f"train jobs need core.trainer.train, which is not installed ({error})"
+        ) from error
+    from core.config import load_config
+
+    config = load_config(spec.profile, spec.config_overrides())
+    resume = context.resume and (context.run_dir / LATEST_CHECKPOINT).is_file()
+    summary = train(
+        config,
+        context.run_dir,
+        resume=resume,
+        on_episode=context.emit,
+        should_stop=context.should_stop,
+    )
+    return dict(summary or {})
+
+
+def train_resumable(run_dir: Path) -> bool:
+    return (run_dir / LATEST_CHECKPOINT).is_file()

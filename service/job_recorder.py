@@ -1,0 +1,176 @@
+"""Writes one running job's progress to the database: metrics, heartbeats, artifact records, the end.
+
+Used by the local worker process (for its own job) and by the Ray executor's driver thread (for
+records streamed back from a Ray task), so both executors fill the same tables the same way.
+
+Exactly-once metric history: rows are keyed by (job_id, episode). The first record an attempt
+writes deletes rows at or beyond its episode (left by a lost attempt after its last checkpoint),
+then every record is an upsert, so a resumed job ends with each episode exactly once.
+Every write first checks that the job is still running under this owner; if not (it was recovered
+elsewhere or cancelled) `LostOwnership` tells the worker to stop.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import delete, select, update
+from sqlalchemy.dialects import postgresql, sqlite
+from sqlalchemy.orm import Session
+
+from registry.artifact_store import ArtifactStore, artifact_kind
+from registry.database import Database
+from registry.models import utc_now
+from service.errors import LostOwnership
+from service.models import Job, JobArtifact, JobMetric
+
+
+def jsonable(value: Any) -> Any:
+    """Plain JSON types: numpy/torch scalars via .item(), NaN/inf → None (JSON has no NaN)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [jsonable(v) for v in value]
+    if isinstance(value, str | int | bool) or value is None:
+        return value
+    if hasattr(value, "item"):
+        try:
+            return jsonable(value.item())
+        except (TypeError, ValueError):
+            pass
+    if hasattr(value, "tolist"):
+        return jsonable(value.tolist())
+    if isinstance(value, Path | datetime):
+        return str(value)
+    return json.loads(json.dumps(value, default=str))
+
+
+def upsert(session: Session, model: type, values: dict[str, Any], keys: list[str]) -> None:
+    """INSERT ... ON CONFLICT (keys) DO UPDATE on SQLite/PostgreSQL; merge() elsewhere."""
+    dialect = session.get_bind().dialect.name
+    if dialect in ("sqlite", "postgresql"):
+        insert = sqlite.insert if dialect == "sqlite" else postgresql.insert
+        statement = insert(model).values(**values)
+        updates = {k: statement.excluded[k] for k in values if k not in keys}
+        session.execute(statement.on_conflict_do_update(index_elements=keys, set_=updates))
+    else:  # pragma: no cover - other databases
+        session.merge(model(**values))
+
+
+@dataclass
+class HeartbeatReply:
+    still_owner: bool
+    cancel_requested: bool
+
+
+class JobRecorder:
+    """The database side of one attempt of one job."""
+
+    def __init__(self, database: Database, *, job_id: int, owner: str, attempt: int, run_dir: Path) -> None:
+        self.database = database
+        self.job_id = job_id
+        self.owner = owner
+        self.attempt = attempt
+        self.run_dir = Path(run_dir)
+        self._first_record = True
+        self._seen: dict[str, tuple[int, int]] = {}
+
+    def _require_owner(self, session: Session) -> Job:
+        job = session.get(Job, self.job_id)
+        if job is None or job.status != "running" or job.owner != self.owner:
+            raise LostOwnership(f"job {self.job_id} is no longer running under {self.owner}")
+        return job
+
+    def heartbeat(self) -> HeartbeatReply:
+        with self.database.write() as session:
+            result = session.execute(
+                update(Job)
+                .where(Job.id == self.job_id, Job.owner == self.owner, Job.status == "running")
+                .values(heartbeat_at=utc_now())
+            )
+            cancel = bool(session.scalar(select(Job.cancel_requested).where(Job.id == self.job_id)))
+            return HeartbeatReply(still_owner=result.rowcount == 1, cancel_requested=cancel)
+
+    def set_pid(self, pid: int) -> None:
+        with self.database.write() as session:
+            session.execute(
+                update(Job).where(Job.id == self.job_id, Job.owner == self.owner).values(worker_pid=pid)
+            )
+
+    def record_metric(self, record: dict[str, Any]) -> None:
+        """Store one episode record (upsert) and refresh checkpoint records that changed."""
+        data = jsonable(dict(record))
+        episode = int(data["episode"])
+        step = data.get("global_step")
+        with self.database.write() as session:
+            job = self._require_owner(session)
+            if self._first_record:
+                session.execute(
+                    delete(JobMetric).where(JobMetric.job_id == self.job_id, JobMetric.episode >= episode)
+                )
+                self._first_record = False
+            upsert(
+                session,
+                JobMetric,
+                {
+                    "job_id": self.job_id,
+                    "episode": episode,
+                    "global_step": int(step) if isinstance(step, int | float) else None,
+                    "attempt": self.attempt,
+                    "data": data,
+                    "recorded_at": utc_now(),
+                },
+                ["job_id", "episode"],
+            )
+            job.progress_episode = episode
+            job.heartbeat_at = utc_now()
+            self._record_files(session, self.run_dir / "checkpoints", prefix="checkpoints/")
+
+    def _record_files(self, session: Session, folder: Path, *, prefix: str) -> None:
+        for stored in ArtifactStore.list_files(folder):
+            name = prefix + stored.name
+            stat = stored.path.stat()
+            signature = (stat.st_size, stat.st_mtime_ns)
+            if self._seen.get(name) == signature:
+                continue
+            self._seen[name] = signature
+            upsert(
+                session,
+                JobArtifact,
+                {
+                    "job_id": self.job_id,
+                    "name": name,
+                    "kind": artifact_kind(name),
+                    "size": stat.st_size,
+                    "modified_at": datetime.fromtimestamp(stat.st_mtime, UTC),
+                },
+                ["job_id", "name"],
+            )
+
+    def finish(
+        self, status: str, *, summary: dict[str, Any] | None = None, reason: str | None = None
+    ) -> bool:
+        """Write the job's end (succeeded/failed/cancelled) and record every run-directory file."""
+        with self.database.write() as session:
+            job = session.get(Job, self.job_id)
+            if job is None or job.status != "running" or job.owner != self.owner:
+                return False
+            job.status = status
+            job.summary = jsonable(summary) if summary is not None else job.summary
+            job.reason = reason
+            job.finished_at = utc_now()
+            job.heartbeat_at = job.finished_at
+            job.worker_pid = None
+            self._record_files(session, self.run_dir, prefix="")
+            return True
+
+    def cancel_requested(self) -> bool:
+        with self.database.read() as session:
+            return bool(session.scalar(select(Job.cancel_requested).where(Job.id == self.job_id)))

@@ -1,0 +1,274 @@
+"""Queue operations on the jobs table (keyword-only functions, FastAPI-template `crud` style).
+
+The jobs table is the queue. A claim is `UPDATE jobs SET status='running', owner=... WHERE id=:id
+AND status='queued'`: whichever supervisor's UPDATE matches first wins, the others see 0 rows and
+try the next id, so a job is claimed exactly once on any database. Writes run in write-locked
+transactions (`Database.write`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+from pathlib import Path
+from typing import Any
+
+from sqlalchemy import delete, func, select, update
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from registry.database import Database
+from registry.models import utc_now
+from service.errors import JobConflict, JobNotFound
+from service.models import FINISHED_STATUSES, Job, JobArtifact, JobMetric
+
+CLAIM_RETRIES = 20
+
+
+@dataclass(frozen=True)
+class ClaimedJob:
+    """What an executor needs to start a job."""
+
+    id: int
+    kind: str
+    spec: dict[str, Any]
+    resolved: dict[str, Any]
+    resume: bool
+    attempt: int
+    run_dir: str
+
+
+def job_run_dir(job_id: int) -> str:
+    """The run directory of a job, relative to the artifact root."""
+    return f"jobs/{job_id}"
+
+
+def create_job(
+    database: Database,
+    *,
+    kind: str,
+    spec: dict[str, Any],
+    resolved: dict[str, Any],
+    progress_total: int | None,
+    idempotency_key: str | None = None,
+) -> tuple[Job, bool]:
+    """Insert a queued job; returns (job, created). A repeated idempotency key returns the first job."""
+    if idempotency_key is not None:
+        with database.read() as session:
+            existing = session.scalar(select(Job).where(Job.idempotency_key == idempotency_key))
+            if existing is not None:
+                return existing, False
+    try:
+        with database.write() as session:
+            job = Job(
+                kind=kind,
+                spec=spec,
+                resolved=resolved,
+                status="queued",
+                progress_total=progress_total,
+                idempotency_key=idempotency_key,
+            )
+            session.add(job)
+            session.flush()
+            job.run_dir = job_run_dir(job.id)
+        return job, True
+    except IntegrityError:
+        if idempotency_key is None:
+            raise
+        with database.read() as session:
+            existing = session.scalar(select(Job).where(Job.idempotency_key == idempotency_key))
+        if existing is None:
+            raise
+        return existing, False
+
+
+def get_job(database: Database, *, job_id: int) -> Job:
+    with database.read() as session:
+        job = session.get(Job, job_id)
+        if job is None:
+            raise JobNotFound(f"no job with id {job_id}")
+        return job
+
+
+def list_jobs(
+    database: Database, *, status: str | None, kind: str | None, offset: int, limit: int
+) -> tuple[list[Job], int]:
+    """A page of jobs, newest first, and the number matching the filter."""
+    query = select(Job)
+    counter = select(func.count()).select_from(Job)
+    if status is not None:
+        query, counter = query.where(Job.status == status), counter.where(Job.status == status)
+    if kind is not None:
+        query, counter = query.where(Job.kind == kind), counter.where(Job.kind == kind)
+    with database.read() as session:
+        rows = list(session.scalars(query.order_by(Job.id.desc()).offset(offset).limit(limit)))
+        return rows, int(session.scalar(counter) or 0)
+
+
+def claim_next_job(database: Database, *, owner: str, pid: int | None = None) -> ClaimedJob | None:
+    """Atomically move the oldest queued job to running under `owner`; None if the queue is empty."""
+    for _ in range(CLAIM_RETRIES):
+        with database.write() as session:
+            candidate = session.scalar(select(Job.id).where(Job.status == "queued").order_by(Job.id).limit(1))
+            if candidate is None:
+                return None
+            now = utc_now()
+            claimed = session.execute(
+                update(Job)
+                .where(Job.id == candidate, Job.status == "queued")
+                .values(
+                    status="running",
+                    owner=owner,
+                    attempt=Job.attempt + 1,
+                    started_at=func.coalesce(Job.started_at, now),
+                    heartbeat_at=now,
+                    worker_pid=pid,
+                )
+                .execution_options(synchronize_session=False)
+            )
+            if claimed.rowcount != 1:
+                continue
+            job = session.get(Job, candidate)
+            assert job is not None
+            session.refresh(job)
+            return ClaimedJob(
+                id=job.id,
+                kind=job.kind,
+                spec=dict(job.spec),
+                resolved=dict(job.resolved),
+                resume=job.resume,
+                attempt=job.attempt,
+                run_dir=job.run_dir,
+            )
+    return None
+
+
+def set_worker_pid(database: Database, *, job_id: int, owner: str, pid: int | None) -> None:
+    with database.write() as session:
+        session.execute(update(Job).where(Job.id == job_id, Job.owner == owner).values(worker_pid=pid))
+
+
+def request_cancel(database: Database, *, job_id: int) -> Job:
+    """Cancel a queued job at once; flag a running one (its supervisor ends the process); 409 if finished."""
+    with database.write() as session:
+        job = session.get(Job, job_id)
+        if job is None:
+            raise JobNotFound(f"no job with id {job_id}")
+        if job.status in FINISHED_STATUSES:
+            raise JobConflict(
+                f"job {job_id} already {job.status}; only queued or running jobs can be cancelled"
+            )
+        if job.status == "queued":
+            job.status = "cancelled"
+            job.finished_at = utc_now()
+            job.reason = "cancelled before it started"
+        job.cancel_requested = True
+        session.flush()
+        return job
+
+
+def delete_job(database: Database, *, job_id: int) -> Job:
+    """Delete a finished job's rows (metrics and artifact records go with it); 409 if not finished."""
+    with database.write() as session:
+        job = session.get(Job, job_id)
+        if job is None:
+            raise JobNotFound(f"no job with id {job_id}")
+        if job.status not in FINISHED_STATUSES:
+            raise JobConflict(
+                f"job {job_id} is {job.status}; cancel it or wait until it finishes before deleting"
+            )
+        session.execute(delete(JobMetric).where(JobMetric.job_id == job_id))
+        session.execute(delete(JobArtifact).where(JobArtifact.job_id == job_id))
+        session.delete(job)
+        return job
+
+
+def list_metrics(database: Database, *, job_id: int, since: int, limit: int) -> list[JobMetric]:
+    """Episode records with episode > since, in episode order."""
+    with database.read() as session:
+        if session.get(Job, job_id) is None:
+            raise JobNotFound(f"no job with id {job_id}")
+        return list(
+            session.scalars(
+                select(JobMetric)
+                .where(JobMetric.job_id == job_id, JobMetric.episode > since)
+                .order_by(JobMetric.episode)
+                .limit(limit)
+            )
+        )
+
+
+def list_artifacts(database: Database, *, job_id: int) -> list[JobArtifact]:
+    with database.read() as session:
+        if session.get(Job, job_id) is None:
+            raise JobNotFound(f"no job with id {job_id}")
+        return list(
+            session.scalars(
+                select(JobArtifact).where(JobArtifact.job_id == job_id).order_by(JobArtifact.name)
+            )
+        )
+
+
+def count_by_status(database: Database) -> dict[str, int]:
+    with database.read() as session:
+        return dict(session.execute(select(Job.status, func.count()).group_by(Job.status)).all())
+
+
+# ------------------------------------------------------------------ recovery
+def running_jobs(session: Session) -> list[Job]:
+    return list(session.scalars(select(Job).where(Job.status == "running").order_by(Job.id)))
+
+
+def stale_running_jobs(database: Database, *, older_than: timedelta) -> list[Job]:
+    cutoff: datetime = utc_now() - older_than
+    with database.read() as session:
+        return list(
+            session.scalars(
+                select(Job).where(Job.status == "running", Job.heartbeat_at < cutoff).order_by(Job.id)
+            )
+        )
+
+
+def recover_job(
+    database: Database,
+    *,
+    job_id: int,
+    owner: str | None,
+    reason: str,
+    requeue: bool,
+    resume: bool,
+    max_attempts: int,
+) -> str | None:
+    """Re-queue (resuming if possible) or fail a running job whose worker is gone.
+
+    Only acts if the job is still running under `owner` (None: any owner), so two supervisors never
+    both recover it. Returns the new status, or None when the job had moved on.
+    """
+    with database.write() as session:
+        job = session.get(Job, job_id)
+        if job is None or job.status != "running" or (owner is not None and job.owner != owner):
+            return None
+        if job.cancel_requested:
+            job.status, job.reason = "cancelled", f"cancelled ({reason})"
+            job.finished_at = utc_now()
+        elif requeue and job.attempt < max_attempts:
+            job.status = "queued"
+            job.resume = resume
+            job.reason = f"re-queued after attempt {job.attempt}: {reason}" + (
+                "; will resume from its last checkpoint" if resume else "; will start over"
+            )
+        else:
+            job.status = "failed"
+            tail = f" (attempt {job.attempt} of {max_attempts})" if requeue else ""
+            job.reason = f"{reason}{tail}"
+            job.finished_at = utc_now()
+        job.owner = None
+        job.worker_pid = None
+        return job.status
+
+
+def reset_for_fresh_start(database: Database, *, job_id: int, run_dir: Path) -> None:
+    """A job re-queued without a checkpoint starts over: drop the lost attempt's metric rows."""
+    with database.write() as session:
+        session.execute(delete(JobMetric).where(JobMetric.job_id == job_id))
+        session.execute(delete(JobArtifact).where(JobArtifact.job_id == job_id))

@@ -1,0 +1,215 @@
+"""Validated job specs: each holds the same options as the matching CLI command.
+
+- `train` mirrors `dualsys train`: algo, reward, seed, episodes|steps, profile, overrides, ac.
+  A field left out (None) keeps the profile's value: defaults live in `core.config` only.
+- `align` mirrors `dualsys align`: policy, pairs_dir, epochs, batch_size, name.
+- `eval` mirrors `dualsys eval`: policy, trials, max_steps, domain, seed, onnx.
+- `export` mirrors `dualsys export`: policy, out (an ONNX file name inside the job's run directory).
+- `probe` is the service's own diagnostic kind (documented in docs/service.md): it emits
+  synthetic episode records and JSON checkpoints at a set pace, so an operator can check the
+  queue, workers, heartbeats, cancel and resume of an installation without training anything.
+
+Unknown fields are refused (422 naming the field). `policy` takes `name`, `name@VERSION` or
+`name@ALIAS`; the service resolves it to a version at submission.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+
+from registry.errors import InvalidName
+from registry.references import check_policy_name, parse_policy_ref
+
+OverrideValue = str | int | float | bool | None
+_OVERRIDE_KEY = re.compile(r"^[a-z_]+\.[a-z_0-9]+$")
+_FILE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,100}$")
+
+
+class SpecBase(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+def _check_policy(value: str) -> str:
+    try:
+        parse_policy_ref(value)
+    except InvalidName as error:
+        raise ValueError(str(error)) from error
+    return value
+
+
+def _override_text(value: OverrideValue) -> str:
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return str(value)
+
+
+class TrainSpec(SpecBase):
+    """`dualsys train` options; None keeps the profile's value (see core.config)."""
+
+    algo: str | None = Field(default=None, min_length=1, max_length=32, description="Method name (--algo).")
+    reward: Literal["dense", "sparse"] | None = Field(
+        default=None, description="Extrinsic reward (--reward)."
+    )
+    seed: int | None = Field(default=None, ge=0, le=2**31 - 1, description="Run seed (--seed).")
+    episodes: int | None = Field(default=None, ge=1, le=10_000_000, description="Training episodes.")
+    steps: int | None = Field(default=None, ge=1, le=1_000_000_000, description="Training env steps.")
+    profile: str = Field(default="default", min_length=1, max_length=32, description="Config profile.")
+    overrides: dict[str, OverrideValue] = Field(
+        default_factory=dict, max_length=200, description='Config overrides, e.g. {"agent.batch_size": 32}.'
+    )
+    ac: Literal["ddpg", "cacla"] | None = Field(default=None, description="Actor-critic update rule (--ac).")
+
+    @field_validator("profile")
+    @classmethod
+    def _known_profile(cls, value: str) -> str:
+        profiles = _config_profiles()
+        if profiles is not None and value not in profiles:
+            raise ValueError(f"unknown profile {value!r} (choose from {', '.join(sorted(profiles))})")
+        return value
+
+    @field_validator("algo")
+    @classmethod
+    def _known_algo(cls, value: str | None) -> str | None:
+        names = _algo_names()
+        if value is not None and names is not None and value not in names:
+            raise ValueError(f"unknown algo {value!r} (choose from {', '.join(sorted(names))})")
+        return value
+
+    @field_validator("overrides")
+    @classmethod
+    def _valid_overrides(
+        cls, value: dict[str, OverrideValue], info: ValidationInfo
+    ) -> dict[str, OverrideValue]:
+        for key, raw in value.items():
+            if not _OVERRIDE_KEY.match(key):
+                raise ValueError(f"override key {key!r} is not of the form section.key")
+            message = _config_error(info.data.get("profile", "default"), [f"{key}={_override_text(raw)}"])
+            if message:
+                raise ValueError(message)
+        return value
+
+    def config_overrides(self) -> list[str]:
+        """The spec as `key=value` overrides of `core.config.load_config` (options after overrides)."""
+        items = [f"{key}={_override_text(raw)}" for key, raw in self.overrides.items()]
+        options = {
+            "run.algo": self.algo,
+            "env.reward_mode": self.reward,
+            "run.seed": self.seed,
+            "run.episodes": self.episodes,
+            "run.steps": self.steps,
+            "agent.ac": self.ac,
+        }
+        items += [f"{key}={_override_text(value)}" for key, value in options.items() if value is not None]
+        if self.steps is not None and self.episodes is None:
+            items.append("run.episodes=none")  # --steps alone: the step budget decides
+        return items
+
+
+class AlignSpec(SpecBase):
+    """`dualsys align` options: fine-tune a policy's encoder on paired sim/real images (Section 4.2)."""
+
+    policy: str = Field(description="Source policy: name, name@VERSION or name@ALIAS.")
+    pairs_dir: str = Field(min_length=1, max_length=4096, description="Folder of paired sim/real images.")
+    epochs: int | None = Field(default=None, ge=1, le=100_000)
+    batch_size: int | None = Field(default=None, ge=1, le=65_536)
+    name: str | None = Field(default=None, description="Registered name of the aligned policy.")
+
+    _policy = field_validator("policy")(_check_policy)
+
+    @field_validator("name")
+    @classmethod
+    def _valid_name(cls, value: str | None) -> str | None:
+        if value is None:
+            return None
+        try:
+            return check_policy_name(value)
+        except InvalidName as error:
+            raise ValueError(str(error)) from error
+
+
+class EvalSpec(SpecBase):
+    """`dualsys eval` options: the 8-step grasp-trial evaluator (Table 2 protocol)."""
+
+    policy: str = Field(description="Policy: name, name@VERSION or name@ALIAS.")
+    trials: int = Field(default=25, ge=1, le=100_000)
+    max_steps: int = Field(default=8, ge=1, le=10_000)
+    domain: Literal["sim", "real"] = "sim"
+    seed: int = Field(default=0, ge=0, le=2**31 - 1)
+    onnx: bool = Field(default=False, description="Evaluate the exported ONNX instead of the checkpoint.")
+
+    _policy = field_validator("policy")(_check_policy)
+
+
+class ExportSpec(SpecBase):
+    """`dualsys export` options: encoder + actor to ONNX, checked against PyTorch."""
+
+    policy: str = Field(description="Policy: name, name@VERSION or name@ALIAS.")
+    out: str = Field(default="policy.onnx", description="ONNX file name inside the job's run directory.")
+
+    _policy = field_validator("policy")(_check_policy)
+
+    @field_validator("out")
+    @classmethod
+    def _plain_onnx_name(cls, value: str) -> str:
+        if not _FILE_NAME.match(value) or not value.endswith(".onnx"):
+            raise ValueError("out must be a plain file name ending in .onnx (no folders)")
+        return value
+
+
+class ProbeSpec(SpecBase):
+    """The diagnostic kind: `episodes` synthetic records, one every `interval_s` seconds."""
+
+    episodes: int = Field(default=5, ge=1, le=100_000)
+    interval_s: float = Field(default=0.1, ge=0.0, le=60.0)
+    fail_at_episode: int | None = Field(default=None, ge=1, description="Raise an error at this episode.")
+
+    @model_validator(mode="after")
+    def _fail_within_run(self) -> ProbeSpec:
+        if self.fail_at_episode is not None and self.fail_at_episode > self.episodes:
+            raise ValueError("fail_at_episode must not exceed episodes")
+        return self
+
+
+SPEC_MODELS: dict[str, type[SpecBase]] = {
+    "train": TrainSpec,
+    "align": AlignSpec,
+    "eval": EvalSpec,
+    "export": ExportSpec,
+    "probe": ProbeSpec,
+}
+
+
+# ------------------------------------------------------------------ checks against core.config
+def _config_profiles() -> set[str] | None:
+    try:
+        from core.config import PROFILES
+    except ImportError:  # pragma: no cover - core not installed
+        return None
+    return set(PROFILES)
+
+
+def _algo_names() -> set[str] | None:
+    """Method names the trainer knows (`core.algos.ALGO_NAMES`/`ALGOS`), or None if unavailable."""
+    try:
+        import core.algos as algos
+    except ImportError:
+        return None
+    names: Any = getattr(algos, "ALGO_NAMES", None) or getattr(algos, "ALGOS", None)
+    return set(names) if names else None
+
+
+def _config_error(profile: str, overrides: list[str]) -> str | None:
+    try:
+        from core.config import ConfigError, load_config
+    except ImportError:  # pragma: no cover - core not installed
+        return None
+    try:
+        load_config(profile if profile in (_config_profiles() or {profile}) else "default", overrides)
+    except ConfigError as error:
+        return str(error)
+    return None

@@ -16,11 +16,17 @@ config = context.config
 target_metadata = RegistryBase.metadata
 
 
+def _own_tables_only(name, type_, parent_names) -> bool:  # type: ignore[no-untyped-def]
+    """Autogenerate compares only this package's tables (the other package's live in the same DB)."""
+    return type_ != "table" or name in target_metadata.tables
+
+
 def _run(connection) -> None:  # type: ignore[no-untyped-def]
     context.configure(
         connection=connection,
         target_metadata=target_metadata,
         version_table=VERSION_TABLE,
+        include_name=_own_tables_only,
         render_as_batch=connection.dialect.name == "sqlite",
     )
     with context.begin_transaction():

@@ -61,7 +61,7 @@ class PhysicsSettings:
 
     time_step: float = 1.0 / 240.0
     move_substeps: int = 24
-    hand_substeps: int = 30
+    hand_substeps: int = 20
     shoulder_force: float = 60.0
     shoulder_max_velocity: float = 6.0
     shoulder_position_gain: float = 0.3
@@ -316,10 +316,14 @@ class NicoGraspEnv(gym.Env):
             return False, True
         if self._distance() < self.grasp_threshold:
             return True, False
+        # Undo: open the hand, move the shoulder back and put the glass back. Only the end state matters to
+        # the episode (the glass is restored anyway), so the arm is placed there instead of simulated there.
         self._release_glass()
         self._set_hand(closed=False)
-        self._simulate(self.physics.hand_substeps)
-        self._move_shoulder(q_before)
+        for joint in self._fingers:
+            c.resetJointState(self._robot, joint, 0.0)
+        c.resetJointState(self._robot, self._shoulder, q_before)
+        self._set_shoulder_target(q_before)
         c.resetBasePositionAndOrientation(self._glass, *glass_before)
         c.resetBaseVelocity(self._glass, (0, 0, 0), (0, 0, 0))
         return False, False

@@ -331,12 +331,18 @@ class NicoGraspEnv(gym.Env):
     # ------------------------------------------------------------- gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        if seed is not None:
-            self._episode_index = 0
-            self._noise_rng = np.random.default_rng([self.camera_shift.seed, seed])
         c = self._client
         self._release_glass()
-        c.restoreState(self._initial_state)
+        if seed is not None:
+            # A seeded reset rebuilds the world, so that it is bit-for-bit a fresh env (restoreState alone
+            # leaves solver warm-start caches behind that perturb the 6th digit).
+            self._episode_index = 0
+            self._noise_rng = np.random.default_rng([self.camera_shift.seed, seed])
+            c.removeState(self._initial_state)
+            c.resetSimulation()
+            self._build_scene()
+        else:
+            c.restoreState(self._initial_state)
         if self._fixed_positions is not None:
             angle, jitter = self._fixed_positions[self._episode_index % len(self._fixed_positions)]
         else:

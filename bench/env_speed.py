@@ -80,15 +80,16 @@ def _floor_rate(seconds: float, seed: int) -> float:
     return rate
 
 
-def measure(seconds: float = 5.0, seed: int = 0) -> dict:
-    """Interleave env and floor measurements (twice each) so machine noise hits both alike."""
+def measure(seconds: float = 6.0, seed: int = 0, rounds: int = 6) -> dict:
+    """Alternate short env and floor measurements so machine noise hits both alike; report medians."""
     env_rates, floor_rates = [], []
-    for _ in range(2):
-        env_rates.append(_env_rate(seconds / 2, seed))
-        floor_rates.append(_floor_rate(seconds / 2, seed))
-    env_rate, floor_rate = float(np.mean(env_rates)), float(np.mean(floor_rates))
+    for _ in range(rounds):
+        env_rates.append(_env_rate(seconds / (2 * rounds), seed))
+        floor_rates.append(_floor_rate(seconds / (2 * rounds), seed))
+    ratios = np.asarray(floor_rates) / np.asarray(env_rates)
     return {
-        "env_steps_per_s": round(env_rate, 1),
-        "floor_steps_per_s": round(floor_rate, 1),
-        "ratio": round(floor_rate / env_rate, 3),
+        "env_steps_per_s": round(float(np.median(env_rates)), 1),
+        "floor_steps_per_s": round(float(np.median(floor_rates)), 1),
+        "ratio": round(float(np.median(ratios)), 3),
+        "rounds": rounds,
     }

@@ -19,7 +19,7 @@ def _emit(result: dict, as_json: bool) -> None:
 
 @app.command("env")
 def bench_env(
-    seconds: float = typer.Option(5.0, help="Wall-clock seconds per measurement."),
+    seconds: float = typer.Option(6.0, help="Wall-clock seconds per measurement."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
 ) -> None:
     """Env steps per second under random actions, beside the bare-PyBullet floor."""

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import typer
 
-from dualsys_cli import bench, env
+from dualsys_cli import bench, env, train
 
 app = typer.Typer(
     name="dualsys",
@@ -17,6 +17,7 @@ app = typer.Typer(
 )
 app.add_typer(env.app, name="env")
 app.add_typer(bench.app, name="bench")
+app.command("train")(train.train_command)
 
 
 if __name__ == "__main__":  # pragma: no cover

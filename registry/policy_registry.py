@@ -26,7 +26,6 @@ from sqlalchemy.orm import Session, selectinload
 from registry.artifact_store import ArtifactStore, artifact_kind, sha256_of
 from registry.database import Database
 from registry.errors import InvalidName, InvalidRunDirectory, PolicyNotFound, VersionNotFound
-from registry.migrate import upgrade_registry
 from registry.models import Policy, PolicyAlias, PolicyArtifact, PolicyVersion, PolicyVersionTag
 from registry.records import ArtifactRecord, PolicyRecord, PolicyVersionRecord
 from registry.references import check_alias, check_policy_name, check_tag_key, parse_policy_ref
@@ -48,6 +47,8 @@ class PolicyRegistry:
         """Connect (and by default bring the registry tables to the newest migration)."""
         database = Database(database_url)
         if migrate:
+            from registry.migrate import upgrade_registry  # alembic is only needed here
+
             upgrade_registry(database.engine)
         return cls(database, ArtifactStore(artifact_root))
 

@@ -8,6 +8,7 @@ replica). Shutdown: the supervisor stops its workers and re-queues their jobs to
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
@@ -22,6 +23,7 @@ from service.api.errors import install_error_handlers
 from service.api.routes import health, jobs, policies
 from service.api.size_limit import BodySizeLimit
 from service.migrate import upgrade_service
+from service.schemas.specs import warm_up_validators
 from service.settings import ServiceSettings
 from service.supervisor import Supervisor
 
@@ -35,6 +37,8 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         database = Database(settings.database_url)
         await run_in_threadpool(upgrade_service, database.engine)
+        # import the method registry (torch) once in the background, not on the first train request
+        threading.Thread(target=warm_up_validators, name="dualsys-warm-up", daemon=True).start()
         registry = PolicyRegistry(database, ArtifactStore(settings.artifacts))
         supervisor = Supervisor(settings, database) if settings.run_jobs else None
         if supervisor is not None:

@@ -164,7 +164,8 @@ class JobRecorder:
                 return False
             job.status = status
             job.summary = jsonable(summary) if summary is not None else job.summary
-            job.reason = reason
+            if reason is not None or status != "succeeded":
+                job.reason = reason  # a succeeded job keeps the note of an earlier recovery
             job.finished_at = utc_now()
             job.heartbeat_at = job.finished_at
             job.worker_pid = None

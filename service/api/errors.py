@@ -57,7 +57,10 @@ def install_error_handlers(app: FastAPI) -> None:
         errors = []
         for item in error.errors():
             message = str(item.get("msg", "invalid value")).removeprefix("Value error, ")
-            errors.append({"field": field_path(item.get("loc", ())), "message": message})
+            field = field_path(item.get("loc", ()))
+            if item.get("type") in ("union_tag_invalid", "union_tag_not_found"):
+                field = "kind" if field == "body" else f"{field}.kind"
+            errors.append({"field": field, "message": message})
         first = errors[0] if errors else {"field": "body", "message": "invalid request"}
         detail = f"{first['field']}: {first['message']}"
         if len(errors) > 1:

@@ -18,10 +18,11 @@ LATEST_CHECKPOINT = Path("checkpoints") / "latest.pt"
 def prepare_train(spec: BaseModel, registry: PolicyRegistry) -> Submission:
     """Resolve the config now, so a bad combination is a 422 and the job records what it ran."""
     assert isinstance(spec, TrainSpec)
+    from core.algos import resolve_algo
     from core.config import ConfigError, load_config
 
     try:
-        config = load_config(spec.profile, spec.config_overrides())
+        config = resolve_algo(load_config(spec.profile, spec.config_overrides()))
     except ConfigError as error:
         raise SpecRejected(f"spec: {error}", field="spec") from error
     return Submission(resolved={"config": config.to_dict()}, progress_total=config.run.episodes)

@@ -16,7 +16,7 @@ Unknown fields are refused (422 naming the field). `policy` takes `name`, `name@
 from __future__ import annotations
 
 import re
-from typing import Any, Literal
+from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
@@ -194,13 +194,12 @@ def _config_profiles() -> set[str] | None:
 
 
 def _algo_names() -> set[str] | None:
-    """Method names the trainer knows (`core.algos.ALGO_NAMES`/`ALGOS`), or None if unavailable."""
+    """Method names the trainer knows (`core.algos.load_algos()`), or None if unavailable."""
     try:
-        import core.algos as algos
+        from core.algos import load_algos
     except ImportError:
         return None
-    names: Any = getattr(algos, "ALGO_NAMES", None) or getattr(algos, "ALGOS", None)
-    return set(names) if names else None
+    return set(load_algos())
 
 
 def _config_error(profile: str, overrides: list[str]) -> str | None:
@@ -213,3 +212,9 @@ def _config_error(profile: str, overrides: list[str]) -> str | None:
     except ConfigError as error:
         return str(error)
     return None
+
+
+def warm_up_validators() -> None:
+    """Import what the train-spec validators need (the method registry imports torch)."""
+    _config_profiles()
+    _algo_names()

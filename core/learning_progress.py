@@ -132,6 +132,12 @@ class LearningProgress:
         current = self._means[ids, (n - 1) % (self.history + 1)]
         return np.where(n > 0, current, 0.0)
 
+    def error_count(self, node_ids: np.ndarray | list[int] | int) -> np.ndarray:
+        """How many errors each node has recorded since it was (re)created."""
+        ids = np.asarray(node_ids, dtype=np.int64).reshape(-1)
+        self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
+        return self._n_errors[ids].copy()
+
     def learning_progress(self, node_ids: np.ndarray | list[int] | int) -> np.ndarray:
         """LP_{t,n} (Eq. 9) per node; NaN where the node is unreliable for lack of history."""
         ids = np.asarray(node_ids, dtype=np.int64).reshape(-1)

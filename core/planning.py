@@ -73,23 +73,27 @@ class PlanResult:
 
 
 @torch.no_grad()
-def plan_depth(
+def model_rollout(
     phi: torch.Tensor,
     node: int,
-    lp: LearningProgress,
-    itm: InstantaneousTopologicalMap,
     bank: ModelBank,
     actor: ActorFn,
-    d_max: int,
+    max_depth: int,
+    continue_at: Callable[[int, int], bool],
+    locate: Callable[[torch.Tensor], int],
 ) -> Rollout:
-    """Algorithm 1 (with Alg. 3 lines 13-21): roll out while LP_{i,n} ≥ 0 and i < D_max."""
-    if d_max < 0:
-        raise ValueError(f"d_max must be >= 0, got {d_max}")
+    """Roll μ and the local models out from φ; before step i, ``continue_at(i, n_i)`` says whether to go on.
+
+    Step i predicts (â_i, r̂_i, φ̂_{i+1}) with node n_i's model; n_{i+1} = ``locate(φ̂_{i+1})``. Shared by
+    Alg. 1 (continue while LP ≥ 0), the fixed-horizon baselines and LA-Imagination's random depth.
+    """
+    if max_depth < 0:
+        raise ValueError(f"rollout depth limit must be >= 0, got {max_depth}")
     current = torch.as_tensor(phi, dtype=torch.float32).reshape(1, -1)
     n = int(node)
     latents, actions, rewards, next_latents, nodes = [], [], [], [], []
-    for _ in range(d_max):
-        if not bool(lp.reliable(n)[0]):
+    for i in range(max_depth):
+        if not continue_at(i, n):
             break
         action = actor(current).reshape(1, -1)
         prediction = bank.predict(torch.tensor([n]), current, action)
@@ -99,7 +103,7 @@ def plan_depth(
         next_latents.append(prediction.next_latent)
         nodes.append(n)
         current = prediction.next_latent
-        n = int(itm.nearest(current)[0])
+        n = locate(current)
     if not nodes:
         dim = current.shape[1]
         return Rollout(
@@ -115,6 +119,25 @@ def plan_depth(
         rewards=torch.cat(rewards),
         next_latents=torch.cat(next_latents),
         nodes=torch.tensor(nodes, dtype=torch.int64),
+    )
+
+
+def plan_depth(
+    phi: torch.Tensor,
+    node: int,
+    lp: LearningProgress,
+    itm: InstantaneousTopologicalMap,
+    bank: ModelBank,
+    actor: ActorFn,
+    d_max: int,
+) -> Rollout:
+    """Algorithm 1 (with Alg. 3 lines 13-21): roll out while LP_{i,n} ≥ 0 and i < D_max."""
+    if d_max < 0:
+        raise ValueError(f"d_max must be >= 0, got {d_max}")
+    return model_rollout(
+        phi, node, bank, actor, d_max,
+        continue_at=lambda _i, n: bool(lp.reliable(n)[0]),
+        locate=lambda latent: int(itm.nearest(latent)[0]),
     )
 
 

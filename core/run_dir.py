@@ -22,6 +22,7 @@ import io
 import json
 import math
 import os
+import pickle
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
@@ -75,9 +76,12 @@ def load_checkpoint(path: Path) -> dict[str, Any]:
     """Load a checkpoint written by this module (weights only: tensors, numbers, strings, containers)."""
     if not path.is_file():
         raise RunDirectoryError(f"checkpoint not found: {path}")
-    state = torch.load(path, map_location="cpu", weights_only=True)
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except (pickle.UnpicklingError, RuntimeError, EOFError, ValueError) as exc:
+        raise RunDirectoryError(f"{path} is not a dualsys checkpoint ({type(exc).__name__})") from None
     if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT:
-        raise ValueError(f"{path} is not a dualsys checkpoint")
+        raise RunDirectoryError(f"{path} is not a dualsys checkpoint")
     return state
 
 

@@ -131,7 +131,7 @@ def run_worker(args: argparse.Namespace) -> int:
 
     if lost.is_set():
         return EXIT_LOST
-    if stop.is_set():
+    if stop.is_set() or summary.get("stopped"):  # the trainer also stops on SIGINT by itself
         if recorder.cancel_requested():
             recorder.finish("cancelled", summary=summary, reason="cancelled by request")
             return EXIT_RECORDED

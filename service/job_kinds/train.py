@@ -19,10 +19,11 @@ def prepare_train(spec: BaseModel, registry: PolicyRegistry) -> Submission:
     """Resolve the config now, so a bad combination is a 422 and the job records what it ran."""
     assert isinstance(spec, TrainSpec)
     from core.algos import resolve_algo
-    from core.config import ConfigError, load_config
+    from core.config import ConfigError, check_config
 
     try:
-        config = resolve_algo(load_config(spec.profile, spec.config_overrides()))
+        config = resolve_algo(load_train_config(spec))
+        check_config(config)
     except ConfigError as error:
         raise SpecRejected(f"spec: {error}", field="spec") from error
     return Submission(resolved={"config": config.to_dict()}, progress_total=config.run.episodes)
@@ -37,9 +38,7 @@ def run_train(context: JobContext) -> dict[str, Any]:
         raise JobKindUnavailable(
             f"train jobs need core.trainer.train, which is not installed ({error})"
         ) from error
-    from core.config import load_config
-
-    config = load_config(spec.profile, spec.config_overrides())
+    config = load_train_config(spec)
     resume = context.resume and (context.run_dir / LATEST_CHECKPOINT).is_file()
     summary = train(
         config,
@@ -51,5 +50,8 @@ def run_train(context: JobContext) -> dict[str, Any]:
     return dict(summary or {})
 
 
-def train_resumable(run_dir: Path) -> bool:
-    return (run_dir / LATEST_CHECKPOINT).is_file()
+def load_train_config(spec: TrainSpec):  # type: ignore[no-untyped-def]
+    """The run's Config: the profile, then `overrides`, then the named options (as `dualsys train`)."""
+    from core.config import load_config
+
+    return load_config(spec.profile, spec.config_overrides())

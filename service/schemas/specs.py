@@ -49,7 +49,10 @@ def _override_text(value: OverrideValue) -> str:
 
 
 class TrainSpec(SpecBase):
-    """`dualsys train` options; None keeps the profile's value (see core.config)."""
+    """`dualsys train` options; None keeps the profile's value (see core.config).
+
+    As in `dualsys train` (dualsys_cli/train.py), the named options are applied after `overrides`.
+    """
 
     algo: str | None = Field(default=None, min_length=1, max_length=32, description="Method name (--algo).")
     reward: Literal["dense", "sparse"] | None = Field(
@@ -58,6 +61,9 @@ class TrainSpec(SpecBase):
     seed: int | None = Field(default=None, ge=0, le=2**31 - 1, description="Run seed (--seed).")
     episodes: int | None = Field(default=None, ge=1, le=10_000_000, description="Training episodes.")
     steps: int | None = Field(default=None, ge=1, le=1_000_000_000, description="Training env steps.")
+    minutes: float | None = Field(
+        default=None, gt=0, le=525_600, description="Wall-clock budget (--minutes)."
+    )
     profile: str = Field(default="default", min_length=1, max_length=32, description="Config profile.")
     overrides: dict[str, OverrideValue] = Field(
         default_factory=dict, max_length=200, description='Config overrides, e.g. {"agent.batch_size": 32}.'
@@ -104,9 +110,11 @@ class TrainSpec(SpecBase):
             "run.steps": self.steps,
             "agent.ac": self.ac,
         }
+        if self.minutes is not None:
+            options["run.max_wall_s"] = self.minutes * 60.0
         items += [f"{key}={_override_text(value)}" for key, value in options.items() if value is not None]
-        if self.steps is not None and self.episodes is None:
-            items.append("run.episodes=none")  # --steps alone: the step budget decides
+        if self.episodes is None and (self.steps is not None or self.minutes is not None):
+            items.append("run.episodes=none")  # as `dualsys train`: --steps/--minutes alone set the budget
         return items
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import typer
 
-from dualsys_cli import bench, env, train
+from dualsys_cli import bench, env, jobs, registry_cmd, serve, train
 
 app = typer.Typer(
     name="dualsys",
@@ -18,6 +18,9 @@ app = typer.Typer(
 app.add_typer(env.app, name="env")
 app.add_typer(bench.app, name="bench")
 app.command("train")(train.train_command)
+app.command("serve")(serve.serve_command)
+app.add_typer(jobs.app, name="jobs")
+app.add_typer(registry_cmd.app, name="registry")
 
 
 if __name__ == "__main__":  # pragma: no cover

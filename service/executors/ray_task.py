@@ -1,0 +1,62 @@
+"""The function a Ray task runs for one job: a generator streaming its records back to the driver.
+
+The job runs in a thread of the Ray worker; the generator yields each episode record as it comes,
+a heartbeat when none came for `heartbeat_s`, and finally the summary. The driver (the service's
+`RayExecutor`) writes them to the database, so metrics flow into the same tables as with the local
+executor, and the task itself needs no database access: only the artifact root, which must be a
+filesystem the cluster's workers share with the service (the local Ray of `ray.init()` does).
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+
+def run_job_stream(
+    job_id: int,
+    kind: str,
+    spec: dict[str, Any],
+    resolved: dict[str, Any],
+    run_dir: str,
+    resume: bool,
+    heartbeat_s: float,
+) -> Iterator[dict[str, Any]]:
+    from service.job_execution import execute_job
+    from service.job_recorder import jsonable
+
+    items: queue.Queue[tuple[str, Any]] = queue.Queue()
+
+    def work() -> None:
+        try:
+            summary = execute_job(
+                job_id=job_id,
+                kind=kind,
+                spec=spec,
+                resolved=resolved,
+                run_dir=Path(run_dir),
+                resume=resume,
+                emit=lambda record: items.put(("metric", record)),
+                should_stop=lambda: False,  # Ray cancels the task's process instead
+            )
+            items.put(("result", summary))
+        except BaseException as error:  # handed to the driver as the task's exception
+            items.put(("error", error))
+
+    threading.Thread(target=work, name=f"dualsys-job-{job_id}", daemon=True).start()
+    while True:
+        try:
+            tag, payload = items.get(timeout=heartbeat_s)
+        except queue.Empty:
+            yield {"type": "heartbeat"}
+            continue
+        if tag == "metric":
+            yield {"type": "metric", "record": jsonable(payload)}
+        elif tag == "result":
+            yield {"type": "result", "summary": jsonable(payload)}
+            return
+        else:
+            raise payload

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, HTTPException, Response, status
+from typing import Annotated
+
+from fastapi import APIRouter, HTTPException, Path, Response, status
 from fastapi.responses import FileResponse
 
 from registry.errors import VersionNotFound
+from registry.references import ALIAS_NAME, POLICY_NAME
 from service import job_store
 from service.api.deps import MutationAuth, StateDep
 from service.errors import JobConflict
@@ -20,6 +23,9 @@ from service.schemas.policies import (
 )
 
 router = APIRouter(prefix="/policies", tags=["policies"])
+Name = Annotated[str, Path(pattern=POLICY_NAME.pattern, description="Policy name.")]
+Alias = Annotated[str, Path(pattern=ALIAS_NAME.pattern, description="Alias name, e.g. champion.")]
+Selector = Annotated[str, Path(max_length=40, description="A version number or an alias.")]
 ERRORS = {
     400: {"model": ErrorPublic},
     401: {"model": ErrorPublic},
@@ -36,7 +42,7 @@ def list_policies(state: StateDep) -> PoliciesPublic:
 
 
 @router.get("/{name}", response_model=PolicyPublic, responses=ERRORS)
-def get_policy(name: str, state: StateDep) -> PolicyPublic:
+def get_policy(name: Name, state: StateDep) -> PolicyPublic:
     return PolicyPublic.of(state.registry.get_policy(name))
 
 
@@ -47,7 +53,7 @@ def get_policy(name: str, state: StateDep) -> PolicyPublic:
     dependencies=[MutationAuth],
     responses=ERRORS,
 )
-def register_version(name: str, body: VersionCreate, state: StateDep) -> PolicyVersionPublic:
+def register_version(name: Name, body: VersionCreate, state: StateDep) -> PolicyVersionPublic:
     """Register a succeeded job's run directory as the next version of `name`."""
     job = job_store.get_job(state.database, job_id=body.job_id)
     if job.status != "succeeded":
@@ -67,7 +73,7 @@ def register_version(name: str, body: VersionCreate, state: StateDep) -> PolicyV
 
 
 @router.get("/{name}/versions/{version}", response_model=PolicyVersionPublic, responses=ERRORS)
-def get_version(name: str, version: str, state: StateDep) -> PolicyVersionPublic:
+def get_version(name: Name, version: Selector, state: StateDep) -> PolicyVersionPublic:
     """A version by number, or by alias (`/policies/grasp/versions/champion`)."""
     return PolicyVersionPublic.of(state.registry.resolve(f"{name}@{version}"))
 
@@ -78,7 +84,7 @@ def get_version(name: str, version: str, state: StateDep) -> PolicyVersionPublic
     dependencies=[MutationAuth],
     responses=ERRORS,
 )
-def set_alias(name: str, alias: str, body: AliasSet, state: StateDep) -> PolicyVersionPublic:
+def set_alias(name: Name, alias: Alias, body: AliasSet, state: StateDep) -> PolicyVersionPublic:
     """Point `name@alias` at a version (creates or moves the alias)."""
     return PolicyVersionPublic.of(state.registry.set_alias(name, alias, body.version))
 
@@ -89,7 +95,7 @@ def set_alias(name: str, alias: str, body: AliasSet, state: StateDep) -> PolicyV
     dependencies=[MutationAuth],
     responses=ERRORS,
 )
-def delete_alias(name: str, alias: str, state: StateDep) -> Response:
+def delete_alias(name: Name, alias: Alias, state: StateDep) -> Response:
     state.registry.delete_alias(name, alias)
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
@@ -100,7 +106,7 @@ def delete_alias(name: str, alias: str, state: StateDep) -> Response:
     dependencies=[MutationAuth],
     responses=ERRORS,
 )
-def set_tag(name: str, version: str, key: str, body: TagSet, state: StateDep) -> PolicyVersionPublic:
+def set_tag(name: Name, version: Selector, key: str, body: TagSet, state: StateDep) -> PolicyVersionPublic:
     return PolicyVersionPublic.of(state.registry.set_tag(f"{name}@{version}", key, body.value))
 
 
@@ -109,7 +115,7 @@ def set_tag(name: str, version: str, key: str, body: TagSet, state: StateDep) ->
     response_class=FileResponse,
     responses={**ERRORS, 200: {"content": {"application/octet-stream": {}}}},
 )
-def download_policy_artifact(name: str, version: str, artifact: str, state: StateDep) -> FileResponse:
+def download_policy_artifact(name: Name, version: Selector, artifact: str, state: StateDep) -> FileResponse:
     """Download one stored file of a version (only names the version records)."""
     record = state.registry.resolve(f"{name}@{version}")
     try:

@@ -1,0 +1,68 @@
+"""Settings (env prefix, bind rule), spec → config mapping, and kinds whose library is missing."""
+
+from __future__ import annotations
+
+import pytest
+from pydantic import ValidationError
+
+from service.errors import JobKindUnavailable
+from service.job_kinds.library import call_with_options, library_function
+from service.schemas.specs import ExportSpec, TrainSpec
+from service.settings import InsecureBindError, ServiceSettings, is_loopback
+
+
+def test_settings_read_the_dualsys_prefix(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("DUALSYS_WORKERS", "3")
+    monkeypatch.setenv("DUALSYS_DATABASE_URL", "postgresql://u@db/dualsys")
+    monkeypatch.setenv("DUALSYS_TOKEN", "s3cret")
+    settings = ServiceSettings()
+    assert settings.workers == 3 and settings.database_url == "postgresql://u@db/dualsys"
+    assert settings.token is not None and settings.token.get_secret_value() == "s3cret"
+    assert "s3cret" not in repr(settings)
+
+
+@pytest.mark.parametrize("host", ["127.0.0.1", "127.8.0.1", "localhost", "::1", "[::1]"])
+def test_loopback_hosts(host: str) -> None:
+    assert is_loopback(host)
+    ServiceSettings(host=host, token=None).check_bind()
+
+
+@pytest.mark.parametrize("host", ["0.0.0.0", "192.168.1.10", "::", "example.org"])
+def test_non_loopback_bind_needs_a_token(host: str) -> None:
+    with pytest.raises(InsecureBindError, match="DUALSYS_TOKEN"):
+        ServiceSettings(host=host, token=None).check_bind()
+    ServiceSettings(host=host, token="t").check_bind()
+
+
+def test_train_spec_maps_to_config_overrides_like_the_cli() -> None:
+    spec = TrainSpec(algo="ddpg", reward="sparse", seed=4, steps=500, overrides={"agent.batch_size": 32})
+    assert spec.config_overrides() == [
+        "agent.batch_size=32",
+        "run.algo=ddpg",
+        "env.reward_mode=sparse",
+        "run.seed=4",
+        "run.steps=500",
+        "run.episodes=none",
+    ]
+    with pytest.raises(ValidationError, match="unknown config key"):
+        TrainSpec(overrides={"agent.nope": 1})
+    with pytest.raises(ValidationError):
+        ExportSpec(policy="p@1", out="sub/x.onnx")
+
+
+def test_a_kind_without_its_library_fails_with_a_clear_reason() -> None:
+    with pytest.raises(JobKindUnavailable, match=r"align jobs need nowhere\.align_policy"):
+        library_function("align", [("nowhere", "align_policy")])
+    with pytest.raises(JobKindUnavailable, match=r"json\.no_such_function"):
+        library_function("eval", [("json", "no_such_function")])
+
+
+def test_call_with_options_passes_only_declared_options() -> None:
+    def evaluate(policy: str, trials: int = 25, domain: str = "sim") -> dict:
+        return {"policy": policy, "trials": trials, "domain": domain}
+
+    assert call_with_options(evaluate, "p", trials=3, domain=None, unknown=1) == {
+        "policy": "p",
+        "trials": 3,
+        "domain": "sim",
+    }

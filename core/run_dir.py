@@ -157,14 +157,22 @@ class RunDirectory:
         atomic_write_text(self.summary_path, json.dumps(clean, indent=2) + "\n")
 
     def write_learning_curve(self, returns: list[float], evals: list[tuple[int, float]], window: int,
-                             title: str) -> None:
-        """PNG of episodic reward (raw, and smoothed with ``window``) and greedy eval success rate."""
+                             title: str, diagnostics: Mapping[str, list[float]] | None = None) -> None:
+        """PNG of episodic reward (raw, and smoothed with ``window``) and greedy eval success rate; with
+        dual-system ``diagnostics`` (the ``dual/…`` columns) a second panel (core.dual_diagnostics_panel)."""
         import matplotlib
 
         matplotlib.use("Agg")
         from matplotlib import pyplot as plt
 
-        figure, axis = plt.subplots(figsize=(7, 4), dpi=100)
+        from core.dual_diagnostics_panel import draw_dual_panel, has_dual_diagnostics
+
+        second = diagnostics is not None and has_dual_diagnostics(diagnostics)
+        if second:
+            figure, (axis, panel) = plt.subplots(2, 1, figsize=(7, 7), dpi=100, sharex=True)
+            draw_dual_panel(panel, diagnostics, window)
+        else:
+            figure, axis = plt.subplots(figsize=(7, 4), dpi=100)
         episodes = list(range(1, len(returns) + 1))
         if returns:
             axis.plot(episodes, returns, color="tab:blue", alpha=0.2, linewidth=0.6, label="episodic reward")

@@ -308,7 +308,8 @@ class _Trainer:
             self.dir.write_summary(summary)
             self.dir.write_learning_curve(
                 self.returns, self.evals, cfg.run.smoothing_window,
-                f"{cfg.run.algo} · {cfg.env.reward_mode} reward · seed {cfg.run.seed}")
+                f"{cfg.run.algo} · {cfg.env.reward_mode} reward · seed {cfg.run.seed}",
+                diagnostics={k: self.csv.column(k) for k in self.csv.columns if k.startswith("dual/")})
             return summary
         finally:
             env.close()

@@ -5,10 +5,13 @@ from __future__ import annotations
 import csv
 import math
 
+import numpy as np
 import pytest
 import torch
+from PIL import Image
 
 from core.config import load_config
+from core.dual_diagnostics_panel import smooth_skipping_nan
 from core.trainer import train
 
 TINY = [
@@ -41,7 +44,8 @@ def test_algo_trains_tiny_run_end_to_end(tmp_path, algo: str, ac: str) -> None:
         assert decisions == summary["steps"]
     checkpoint = torch.load(tmp_path / "run" / "checkpoints" / "latest.pt", weights_only=True)
     assert "dual" in checkpoint["agent"]
-    assert (tmp_path / "run" / "learning_curve.png").exists()
+    with Image.open(tmp_path / "run" / "learning_curve.png") as picture:
+        assert picture.size == (700, 700)  # two panels: the learning curve and the dual diagnostics
 
 
 def test_i2a_resume_continues_from_checkpoint(tmp_path) -> None:
@@ -52,3 +56,8 @@ def test_i2a_resume_continues_from_checkpoint(tmp_path) -> None:
     assert summary["episodes"] == 3
     rows = list(csv.DictReader((tmp_path / "run" / "metrics.csv").open()))
     assert [int(r["episode"]) for r in rows] == [1, 2, 3]
+
+
+def test_panel_smoothing_skips_episodes_without_a_value() -> None:
+    values = [np.nan, 2.0, np.nan, 4.0, 6.0]
+    np.testing.assert_allclose(smooth_skipping_nan(values, 2), [np.nan, 2.0, 2.0, 4.0, 5.0])

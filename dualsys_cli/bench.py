@@ -6,6 +6,8 @@ import json
 
 import typer
 
+from dualsys_cli.errors import user_errors
+
 app = typer.Typer(help="Benchmarks: each prints JSON figures measured in the same run.", no_args_is_help=True)
 
 
@@ -38,3 +40,18 @@ def bench_modelbank(
     from bench.modelbank_speed import measure
 
     _emit(measure(batch=batch, repeats=repeats), as_json)
+
+
+@app.command("onnx")
+def bench_onnx(
+    policy: str = typer.Option(None, "--policy", help="Run dir or checkpoint (default: untrained net)."),
+    repeats: int = typer.Option(2000, min=1, help="Timed calls at batch 1 (median reported)."),
+    threads: int = typer.Option(1, min=1, help="Threads for both onnxruntime and PyTorch."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
+) -> None:
+    """Per-image policy latency, onnxruntime vs PyTorch, batch 1 and 64 (goal: ≤ 1 ms at batch 1)."""
+    from bench.onnx_speed import measure
+
+    with user_errors():
+        result = measure(policy=policy, repeats=repeats, threads=threads)
+    _emit(result, as_json)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import typer
 
-from dualsys_cli import bench, env, jobs, registry_cmd, serve, train
+from dualsys_cli import bench, deploy, env, jobs, registry_cmd, serve, sim2real_cmd, train
 
 app = typer.Typer(
     name="dualsys",
@@ -21,6 +21,10 @@ app.command("train")(train.train_command)
 app.command("serve")(serve.serve_command)
 app.add_typer(jobs.app, name="jobs")
 app.add_typer(registry_cmd.app, name="registry")
+app.command("export")(deploy.export_command)
+app.command("eval")(deploy.eval_command)
+app.command("pairs")(sim2real_cmd.pairs_command)
+app.command("align")(sim2real_cmd.align_command)
 
 
 if __name__ == "__main__":  # pragma: no cover

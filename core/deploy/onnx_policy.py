@@ -1,0 +1,54 @@
+"""Run an exported policy with onnxruntime: uint8 images ``[N, 32, 64, 3]`` → actions ``[N, action_dim]``.
+
+Input and output names, the action dimension and the hand mode are read from the model's metadata (written
+by :mod:`core.deploy.onnx_export`); a model without them falls back to the graph's first input/output.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+
+class OnnxPolicyError(ValueError):
+    """The file is not a loadable ONNX policy."""
+
+
+class OnnxPolicy:
+    """An ONNX policy on onnxruntime's CPU provider."""
+
+    def __init__(self, path: Path | str, *, threads: int | None = None) -> None:
+        import onnxruntime
+
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise OnnxPolicyError(f"ONNX policy not found: {self.path}")
+        options = onnxruntime.SessionOptions()
+        if threads is not None:
+            options.intra_op_num_threads = int(threads)
+            options.inter_op_num_threads = 1
+        try:
+            self.session = onnxruntime.InferenceSession(str(self.path), options,
+                                                        providers=["CPUExecutionProvider"])
+        except Exception as exc:  # onnxruntime raises its own exception types for a bad file
+            raise OnnxPolicyError(f"cannot load ONNX policy {self.path}: {exc}".splitlines()[0]) from None
+        self.metadata: dict[str, str] = dict(self.session.get_modelmeta().custom_metadata_map)
+        self.input_name = self.metadata.get("input_name", self.session.get_inputs()[0].name)
+        self.output_name = self.metadata.get("output_name", self.session.get_outputs()[0].name)
+        self.obs_shape = tuple(int(v) for v in self.session.get_inputs()[0].shape[1:])
+        output_dim = self.session.get_outputs()[0].shape[-1]
+        self.action_dim = int(self.metadata.get("action_dim", output_dim))
+        self.hand = self.metadata.get("hand", "auto" if self.action_dim == 1 else "learned")
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Actions for uint8 observations ``[N, H, W, 3]`` (or one ``[H, W, 3]`` → ``[1, A]``)."""
+        batch = np.asarray(obs)
+        if batch.dtype != np.uint8:
+            raise ValueError(f"observations must be uint8 images, got {batch.dtype}")
+        if batch.ndim == 3:
+            batch = batch[None]
+        if batch.shape[1:] != self.obs_shape:
+            raise ValueError(f"observations must have shape [N, {', '.join(map(str, self.obs_shape))}], "
+                             f"got {list(batch.shape)}")
+        return self.session.run([self.output_name], {self.input_name: np.ascontiguousarray(batch)})[0]

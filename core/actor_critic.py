@@ -185,6 +185,7 @@ class ActorCritic(nn.Module):
             target = self.td_target(batch.reward, self.target_encoder(to_float_chw(batch.next_obs)),
                                     batch.terminated)
         rec_loss = q_loss = torch.zeros(())
+        latent = torch.zeros(())
         for _ in range(cfg.critic_passes):
             latent = self.encoder(obs)
             rec_loss = (self.decoder(latent) - obs).pow(2).mean()
@@ -193,9 +194,8 @@ class ActorCritic(nn.Module):
             self.critic_optimizer.zero_grad(set_to_none=True)
             loss.backward()
             self.critic_optimizer.step()
-        with torch.no_grad():
-            latent = self.encoder(obs)
-        actor = self.actor_update(self, latent, batch.action, target)
+        # The actor reads φ of the last critic pass (before its Adam step): one encoder forward fewer.
+        actor = self.actor_update(self, latent.detach(), batch.action, target)
         self.update_targets()
         return {
             "losses/critic": float(q_loss.detach()),

@@ -57,8 +57,10 @@ class RunConfig:
     """Write checkpoints/latest.pt (+ the replay buffer) every N episodes and at the end."""
     device: str = "cpu"
     """torch device for the networks."""
-    num_threads: int = 2
-    """torch intra-op threads (the reference machine has 2 cores)."""
+    num_threads: int = 1
+    """torch intra-op threads. 1: the batch-64 convolutions are too small to split, and on the shared
+    2-core machine a second thread waiting at OpenMP barriers made updates 3-8× slower
+    (docs/model-free.md)."""
     smoothing_window: int = 250
     """Sliding window (episodes) of the learning-curve PNG (Fig. 8: 250 dense, 375 sparse)."""
 
@@ -161,6 +163,9 @@ class DualConfig:
     """W: history of window means used by LP (Eq. 9)."""
     lp_normalise: bool = True
     """Divide LP by the max of the history of means (released code)."""
+    lp_warmup: Literal["zero_oldest", "unreliable"] = "zero_oldest"
+    """Before W+1 window means exist: the oldest mean counts as 0, so a new node starts with LP < 0
+    (released code), or the node is unreliable with r_int = 0 (paper reading of Eq. 9)."""
     error_norm: Literal["l2", "squared"] = "l2"
     """Prediction error as norms (released code) or squared norms (paper Eq. 8)."""
     intrinsic_scale: float = 1.0
@@ -169,6 +174,8 @@ class DualConfig:
     """Hidden tanh units of each local world model M_n, R_n."""
     model_lr: float = 1e-3
     """Adam learning rate of the local models."""
+    model_output: Literal["linear", "released"] = "linear"
+    """Local-model output units: linear (Section 4.1.1) or sigmoid latent / tanh reward (released code)."""
     model_batch: int = 1
     """Samples per local-model update (released code: the one real transition)."""
     new_node_model: Literal["fresh", "parent"] = "fresh"
@@ -190,7 +197,9 @@ class DualConfig:
     latent_batch_size: int = 64
     """Minibatch size sampled from B_latent."""
     fixed_horizon: int = 2
-    """Fixed model horizon of the baselines (MVE: 2, CMC: 3)."""
+    """MVE-DDPG's fixed value-expansion horizon H (Section 4.1.2: 2)."""
+    cmc_horizon: int = 3
+    """DDPG+CMC's fixed MPC horizon H (Section 4.1.2: 3)."""
     imagination_prob_scale: float = 1.0
     """LA-Imagination: scale of the rollout probability (inversely proportional to local error)."""
 
@@ -385,3 +394,47 @@ def coerce(raw: Any, annotation: Any, key: str) -> Any:
             raise ConfigError(f"bad value for {key}: {raw!r} (expected a string)")
         return str(raw)
     raise ConfigError(f"config key {key} has an unsupported type {annotation!r}")  # pragma: no cover
+
+
+_POSITIVE_INTS = (
+    "run.eval_episodes", "run.num_threads", "run.smoothing_window", "env.max_steps", "net.latent_dim",
+    "net.critic_hidden", "net.actor_hidden", "agent.batch_size", "agent.buffer_size",
+    "agent.updates_per_step", "agent.updates_per_episode", "agent.critic_passes", "agent.ddpg_actor_passes",
+    "agent.cacla_actor_passes", "agent.noise_anneal_steps", "dual.lp_sigma", "dual.lp_window",
+    "dual.model_hidden", "dual.model_batch", "dual.d_max", "dual.pixel_buffer_size",
+    "dual.latent_buffer_size", "dual.latent_batch_size",
+)
+_NON_NEGATIVE = (
+    "run.seed", "run.eval_every", "run.checkpoint_every", "agent.learning_starts", "agent.lambda_rec",
+    "agent.lambda_q", "agent.noise_std", "agent.noise_final_std", "dual.plan_steps", "dual.fixed_horizon",
+    "dual.cmc_horizon",
+)
+
+
+def check_config(config: Config) -> None:
+    """Range checks a type cannot express; raises ConfigError naming the key."""
+
+    def value(key: str) -> Any:
+        section, name = key.split(".")
+        return getattr(getattr(config, section), name)
+
+    for key in _POSITIVE_INTS:
+        if value(key) < 1:
+            raise ConfigError(f"bad value for {key}: {value(key)!r} (must be >= 1)")
+    for key in _NON_NEGATIVE:
+        if value(key) < 0:
+            raise ConfigError(f"bad value for {key}: {value(key)!r} (must be >= 0)")
+    for key in ("run.episodes", "run.steps", "run.max_wall_s", "env.fixed_positions"):
+        if value(key) is not None and value(key) <= 0:
+            raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0 or none)")
+    if not 0.0 <= config.agent.gamma <= 1.0:
+        raise ConfigError(f"bad value for agent.gamma: {config.agent.gamma!r} (must be in [0, 1])")
+    if not 0.0 <= config.agent.tau <= 1.0:
+        raise ConfigError(f"bad value for agent.tau: {config.agent.tau!r} (must be in [0, 1])")
+    for key in ("agent.critic_lr", "agent.actor_lr", "dual.model_lr", "dual.e_max"):
+        if value(key) <= 0:
+            raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
+    if not config.net.conv_channels or min(config.net.conv_channels) < 1:
+        raise ConfigError("bad value for net.conv_channels: needs at least one positive channel count")
+    if config.run.episodes is None and config.run.steps is None and config.run.max_wall_s is None:
+        raise ConfigError("the run needs a budget: set run.episodes, run.steps or run.max_wall_s")

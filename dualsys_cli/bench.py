@@ -42,6 +42,23 @@ def bench_modelbank(
     _emit(measure(batch=batch, repeats=repeats), as_json)
 
 
+@app.command("train")
+def bench_train(
+    algos: str = typer.Option("ddpg,sb3-ddpg", help="Comma-separated methods: ddpg, cacla, sb3-ddpg."),
+    batch: int = typer.Option(None, min=1, help="Minibatch size (default: the default profile's)."),
+    steps: int = typer.Option(300, min=10, help="Timed training steps per method and round."),
+    rounds: int = typer.Option(2, min=1, help="Alternating rounds; the median is reported."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
+) -> None:
+    """Milliseconds per training step (env step + one update): dualsys vs Stable-Baselines3 DDPG."""
+    from bench.train_speed import measure
+
+    with user_errors():
+        result = measure(algos=tuple(a.strip() for a in algos.split(",") if a.strip()), batch=batch,
+                         steps=steps, rounds=rounds)
+    _emit(result, as_json)
+
+
 @app.command("onnx")
 def bench_onnx(
     policy: str = typer.Option(None, "--policy", help="Run dir or checkpoint (default: untrained net)."),

@@ -1,0 +1,142 @@
+"""Benchmark: milliseconds per training step (one env step + one minibatch update), ours vs SB3's DDPG.
+
+Methods (``--algos``):
+
+* ``ddpg`` / ``cacla`` — dualsys' model-free agent with the default profile (strided encoder, critic-
+  autoencoder update of Eq. 4 incl. the decoder, actor update, τ targets), per-step schedule.
+* ``sb3-ddpg`` — Stable-Baselines3's DDPG (the tool a user would pick instead) on the same env with the
+  same encoder shape (our ``Encoder`` as its features extractor, so conv stack + dense to 32), heads of
+  20 units, the same batch size and buffer size, ``train_freq=1, gradient_steps=1``. SB3 has no decoder
+  and gives actor and critic separate encoders (its default for DDPG).
+
+Each method first collects ``warmup`` steps without updates (learning_starts), then ``steps`` timed
+steps with one update each; ``rounds`` alternate the methods and the median per method is reported.
+Output: ``{"ddpg": {"ms_per_step": ..., "batch": ...}, "sb3-ddpg": {...}, "threads": ...}``.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from typing import Any
+
+import numpy as np
+import torch
+
+from core.agent import Transition
+from core.algos import make_agent
+from core.config import Config, load_config
+from core.trainer import env_spec, make_env
+
+METHODS = ("ddpg", "cacla", "sb3-ddpg")
+
+
+def _config(algo: str, batch: int | None, buffer: int) -> Config:
+    overrides = [f"run.algo={algo}", f"agent.buffer_size={buffer}", "agent.update_schedule=per_step",
+                 "agent.updates_per_step=1"]
+    if batch is not None:
+        overrides.append(f"agent.batch_size={batch}")
+    return load_config("default", overrides)
+
+
+def _ours(algo: str, batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> tuple[float, int]:
+    config = _config(algo, batch, buffer)
+    config.agent.learning_starts = warmup
+    torch.manual_seed(seed)
+    env = make_env(config)
+    agent = make_agent(config, env_spec(env), np.random.default_rng(seed))
+    obs, _ = env.reset(seed=seed)
+    agent.begin_episode(obs)
+    start = 0.0
+    for step in range(warmup + steps):
+        if step == warmup:
+            start = time.perf_counter()
+        action, _ = agent.act(obs, explore=True)
+        next_obs, reward, terminated, truncated, _ = env.step(action)
+        agent.observe(Transition(obs, action, reward, next_obs, terminated, truncated))
+        agent.update_after_step()
+        obs = next_obs
+        if terminated or truncated:
+            obs, _ = env.reset()
+            agent.begin_episode(obs)
+    elapsed = time.perf_counter() - start
+    env.close()
+    return 1000.0 * elapsed / steps, config.agent.batch_size
+
+
+def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> tuple[float, int]:
+    try:
+        from stable_baselines3 import DDPG
+        from stable_baselines3.common.callbacks import BaseCallback
+        from stable_baselines3.common.noise import NormalActionNoise
+        from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+    except ImportError as exc:  # the bench extra is not installed
+        raise RuntimeError("sb3-ddpg needs stable-baselines3: pip install -e '.[bench]'") from exc
+
+    from core.nets import Encoder
+
+    config = _config("ddpg", batch, buffer)
+
+    class SameEncoder(BaseFeaturesExtractor):
+        """Our encoder shape as SB3's features extractor (SB3 feeds CHW floats in [0, 1])."""
+
+        def __init__(self, observation_space: Any) -> None:
+            super().__init__(observation_space, features_dim=config.net.latent_dim)
+            self.encoder = Encoder(config.net)
+
+        def forward(self, observations: torch.Tensor) -> torch.Tensor:
+            return self.encoder(observations)
+
+    class Timer(BaseCallback):
+        def __init__(self) -> None:
+            super().__init__()
+            self.start: float | None = None
+
+        def _on_step(self) -> bool:
+            if self.num_timesteps == warmup:
+                self.start = time.perf_counter()
+            return True
+
+    env = make_env(config)
+    model = DDPG(
+        "CnnPolicy", env, learning_rate=config.agent.critic_lr, buffer_size=buffer,
+        learning_starts=warmup, batch_size=config.agent.batch_size, tau=config.agent.tau,
+        gamma=config.agent.gamma, train_freq=1, gradient_steps=1,
+        action_noise=NormalActionNoise(np.zeros(1), np.full(1, config.agent.noise_std)),
+        policy_kwargs={"features_extractor_class": SameEncoder, "net_arch": {"pi": [20], "qf": [20]},
+                       "normalize_images": True},
+        seed=seed, device="cpu", verbose=0,
+    )
+    timer = Timer()
+    model.learn(total_timesteps=warmup + steps, callback=timer)
+    elapsed = time.perf_counter() - (timer.start or time.perf_counter())
+    env.close()
+    return 1000.0 * elapsed / steps, config.agent.batch_size
+
+
+def measure(algos: tuple[str, ...] = ("ddpg", "sb3-ddpg"), batch: int | None = None, steps: int = 300,
+            warmup: int = 300, rounds: int = 2, buffer: int = 100_000, seed: int = 0,
+            threads: int = 2) -> dict[str, Any]:
+    """ms per training step for each method (median over ``rounds`` alternating rounds)."""
+    unknown = [name for name in algos if name not in METHODS]
+    if unknown:
+        raise ValueError(f"unknown bench method {unknown[0]!r} (choose from {', '.join(METHODS)})")
+    torch.set_num_threads(threads)
+    samples: dict[str, list[float]] = {name: [] for name in algos}
+    batches: dict[str, int] = {}
+    for _ in range(rounds):
+        for name in algos:
+            if name == "sb3-ddpg":
+                ms, used_batch = _sb3(batch, buffer, warmup, steps, seed)
+            else:
+                ms, used_batch = _ours(name, batch, buffer, warmup, steps, seed)
+            samples[name].append(ms)
+            batches[name] = used_batch
+    result: dict[str, Any] = {
+        name: {"ms_per_step": round(statistics.median(values), 2), "batch": batches[name],
+               "rounds_ms": [round(v, 2) for v in values]}
+        for name, values in samples.items()
+    }
+    result["threads"] = threads
+    result["timed_steps"] = steps
+    return result

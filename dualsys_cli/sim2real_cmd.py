@@ -30,9 +30,28 @@ from dualsys_cli.errors import user_errors
 from dualsys_cli.train import DEFAULT_RUNS_DIR
 
 
-def _progress(console: Console) -> Progress:
-    return Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                    TimeElapsedColumn(), TextColumn("{task.fields[stats]}"), console=console)
+class _LazyProgress:
+    """A progress bar that appears at the first update, so input errors print alone on one line."""
+
+    def __init__(self, description: str, total: int) -> None:
+        self.description, self.total = description, total
+        self.progress: Progress | None = None
+
+    def update(self, completed: int, stats: str = "") -> None:
+        if self.progress is None:
+            self.progress = Progress(TextColumn("[bold]{task.description}"), BarColumn(),
+                                     MofNCompleteColumn(), TimeElapsedColumn(),
+                                     TextColumn("{task.fields[stats]}"), console=Console(stderr=True))
+            self.progress.start()
+            self.task = self.progress.add_task(self.description, total=self.total, stats="")
+        self.progress.update(self.task, completed=completed, stats=stats)
+
+    def __enter__(self) -> _LazyProgress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.progress is not None:
+            self.progress.stop()
 
 
 def pairs_command(
@@ -47,10 +66,9 @@ def pairs_command(
 
     with user_errors():
         camera_shift = read_camera_shift(shift) if shift is not None else None
-        with _progress(Console(stderr=True)) as progress:
-            task = progress.add_task("pairs", total=n, stats="")
+        with _LazyProgress("pairs", n) as progress:
             report = generate_pairs(n=n, out=out, seed=seed, camera_shift=camera_shift,
-                                    on_image=lambda done: progress.update(task, completed=done))
+                                    on_image=progress.update)
     if as_json:
         typer.echo(json.dumps(report.to_dict()))
     else:
@@ -123,13 +141,11 @@ def align_command(
         if out is None:
             stem = (resolved.ref or resolved.path.name).replace("@", "-v")
             out = DEFAULT_RUNS_DIR / f"{stem}-aligned-{time.strftime('%Y%m%d-%H%M%S')}"
-        with _progress(Console(stderr=True)) as progress:
-            task = progress.add_task("align", total=epochs, stats="")
+        with _LazyProgress("align", epochs) as progress:
 
             def show(record: Any) -> None:
-                progress.update(task, completed=record.epoch,
-                                stats=f"loss {record.train_loss:.4f} · held-out distance "
-                                      f"{record.heldout_distance:.4f}")
+                progress.update(record.epoch, f"loss {record.train_loss:.4f} · held-out distance "
+                                              f"{record.heldout_distance:.4f}")
 
             report = align_encoder(policy_path=resolved.path, pairs_dir=pairs, out_dir=out, epochs=epochs,
                                    batch_size=batch_size, lr=lr, holdout=holdout, seed=seed,

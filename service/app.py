@@ -12,6 +12,7 @@ import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
+import anyio.to_thread
 from fastapi import FastAPI
 from starlette.concurrency import run_in_threadpool
 
@@ -35,6 +36,9 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        # few threads: request handlers are short and CPU-bound under the GIL, so a small pool queues
+        # requests fairly (FIFO) instead of letting dozens of threads fight for the interpreter
+        anyio.to_thread.current_default_thread_limiter().total_tokens = settings.request_threads
         database = Database(settings.database_url)
         await run_in_threadpool(upgrade_service, database.engine)
         # import the method registry (torch) once in the background, not on the first train request

@@ -1,7 +1,9 @@
 """Writes one running job's progress to the database: metrics, heartbeats, artifact records, the end.
 
-Used by the local worker process (for its own job) and by the Ray executor's driver thread (for
-records streamed back from a Ray task), so both executors fill the same tables the same way.
+Runs in the service process only: both executors stream a job's records back to it (the local
+worker over a pipe, a Ray task as a streaming generator) and `job_follower.follow_job` writes them
+here. Job processes never hold the database's write lock, so a low-priority (niced) training
+process can never make the API wait for SQLite.
 
 Exactly-once metric history: rows are keyed by (job_id, episode). The first record an attempt
 writes deletes rows at or beyond its episode (left by a lost attempt after its last checkpoint),
@@ -12,8 +14,6 @@ elsewhere or cancelled) `LostOwnership` tells the worker to stop.
 
 from __future__ import annotations
 
-import json
-import math
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -27,29 +27,10 @@ from registry.artifact_store import ArtifactStore, artifact_kind
 from registry.database import Database
 from registry.models import utc_now
 from service.errors import LostOwnership
+from service.json_values import jsonable
 from service.models import Job, JobArtifact, JobMetric
 
-
-def jsonable(value: Any) -> Any:
-    """Plain JSON types: numpy/torch scalars via .item(), NaN/inf → None (JSON has no NaN)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [jsonable(v) for v in value]
-    if isinstance(value, str | int | bool) or value is None:
-        return value
-    if hasattr(value, "item"):
-        try:
-            return jsonable(value.item())
-        except (TypeError, ValueError):
-            pass
-    if hasattr(value, "tolist"):
-        return jsonable(value.tolist())
-    if isinstance(value, Path | datetime):
-        return str(value)
-    return json.loads(json.dumps(value, default=str))
+__all__ = ["HeartbeatReply", "JobRecorder", "jsonable", "upsert"]
 
 
 def upsert(session: Session, model: type, values: dict[str, Any], keys: list[str]) -> None:
@@ -109,6 +90,7 @@ class JobRecorder:
         data = jsonable(dict(record))
         episode = int(data["episode"])
         step = data.get("global_step")
+        changed = self._changed_files(self.run_dir / "checkpoints", prefix="checkpoints/")
         with self.database.write() as session:
             job = self._require_owner(session)
             if self._first_record:
@@ -131,33 +113,42 @@ class JobRecorder:
             )
             job.progress_episode = episode
             job.heartbeat_at = utc_now()
-            self._record_files(session, self.run_dir / "checkpoints", prefix="checkpoints/")
+            self._record_files(session, changed)
 
-    def _record_files(self, session: Session, folder: Path, *, prefix: str) -> None:
+    def _changed_files(self, folder: Path, *, prefix: str) -> list[dict[str, Any]]:
+        """Artifact rows for files of `folder` that changed since last seen (stat only, no database)."""
+        rows = []
         for stored in ArtifactStore.list_files(folder):
             name = prefix + stored.name
-            stat = stored.path.stat()
+            try:
+                stat = stored.path.stat()
+            except OSError:  # replaced between listing and stat
+                continue
             signature = (stat.st_size, stat.st_mtime_ns)
             if self._seen.get(name) == signature:
                 continue
             self._seen[name] = signature
-            upsert(
-                session,
-                JobArtifact,
+            rows.append(
                 {
                     "job_id": self.job_id,
                     "name": name,
                     "kind": artifact_kind(name),
                     "size": stat.st_size,
                     "modified_at": datetime.fromtimestamp(stat.st_mtime, UTC),
-                },
-                ["job_id", "name"],
+                }
             )
+        return rows
+
+    @staticmethod
+    def _record_files(session: Session, rows: list[dict[str, Any]]) -> None:
+        for row in rows:
+            upsert(session, JobArtifact, row, ["job_id", "name"])
 
     def finish(
         self, status: str, *, summary: dict[str, Any] | None = None, reason: str | None = None
     ) -> bool:
         """Write the job's end (succeeded/failed/cancelled) and record every run-directory file."""
+        changed = self._changed_files(self.run_dir, prefix="")
         with self.database.write() as session:
             job = session.get(Job, self.job_id)
             if job is None or job.status != "running" or job.owner != self.owner:
@@ -169,7 +160,7 @@ class JobRecorder:
             job.finished_at = utc_now()
             job.heartbeat_at = job.finished_at
             job.worker_pid = None
-            self._record_files(session, self.run_dir, prefix="")
+            self._record_files(session, changed)
             return True
 
     def cancel_requested(self) -> bool:

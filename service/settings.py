@@ -54,12 +54,16 @@ class ServiceSettings(RegistrySettings):
     """How often the supervisor looks for queued jobs, exits, cancels and stale heartbeats."""
     cancel_grace_s: float = Field(default=5.0, ge=0)
     """Seconds a cancelled/interrupted worker gets to stop before it is killed."""
+    worker_nice: int = Field(default=10, ge=0, le=19)
+    """CPU niceness added to job processes, so training never starves the API (0: same priority)."""
     max_attempts: int = Field(default=3, ge=1)
     """Attempts per job before a lost job is marked failed instead of re-queued."""
     recovery: Literal["requeue", "fail"] = "requeue"
     """What happens to a job whose worker died: re-queue (resuming from its checkpoint) or fail."""
     max_request_bytes: int = Field(default=1_000_000, ge=1024)
     """Largest request body accepted (413 beyond)."""
+    request_threads: int = Field(default=4, ge=1, le=256)
+    """Threads that run request handlers (database calls); more only adds GIL contention."""
     run_jobs: bool = True
     """Run the supervisor in this process (false: an API-only replica that only queues)."""
 

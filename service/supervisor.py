@@ -41,6 +41,8 @@ from service.settings import ServiceSettings
 
 log = logging.getLogger("dualsys.service.supervisor")
 STALE_CHECK_EVERY_S = 1.0
+MIN_TICK_GAP_S = 0.05
+"""A burst of submissions wakes the supervisor at most this often (it is one thread of the API process)."""
 
 
 def make_owner_id() -> str:
@@ -68,11 +70,13 @@ def owner_is_dead_here(owner: str | None) -> bool:
 
 
 def _is_our_worker(pid: int, job_id: int) -> bool:
+    """A `service.worker` process whose working directory is the job's run directory (Linux /proc)."""
     try:
         command = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+        cwd = Path(os.readlink(f"/proc/{pid}/cwd"))
     except OSError:
         return False
-    return b"service.worker" in command and str(job_id).encode() in command
+    return b"service.worker" in command and cwd.parts[-2:] == ("jobs", str(job_id))
 
 
 class Supervisor:
@@ -83,7 +87,7 @@ class Supervisor:
         self.database = database
         self.store = ArtifactStore(settings.artifacts)
         self.owner = make_owner_id()
-        self.executor = executor or make_executor(settings, self.owner)
+        self.executor = executor or make_executor(settings, self.owner, database)
         self._wake = threading.Event()
         self._stopping = threading.Event()
         self._thread: threading.Thread | None = None
@@ -110,12 +114,16 @@ class Supervisor:
 
     def _loop(self) -> None:
         while not self._stopping.is_set():
+            started = time.monotonic()
             try:
                 self.tick()
             except Exception:  # the supervisor must outlive a failed tick (e.g. a locked database)
                 log.exception("supervisor tick failed")
             self._wake.wait(self.settings.poll_interval_s)
             self._wake.clear()
+            spare = MIN_TICK_GAP_S - (time.monotonic() - started)
+            if spare > 0 and not self._stopping.is_set():
+                time.sleep(spare)
 
     # ------------------------------------------------------------------ one round
     def tick(self) -> None:

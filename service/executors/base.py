@@ -12,7 +12,7 @@ EXIT_INTERRUPTED = 75  # the worker stopped without a cancel request: re-queue t
 
 @dataclass(frozen=True)
 class WorkerExit:
-    """A job's worker has ended. `recorded` is True when the worker wrote the job's end itself."""
+    """A job's worker has ended (whether its end was recorded is read from the jobs table)."""
 
     job_id: int
     returncode: int | None

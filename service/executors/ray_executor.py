@@ -2,7 +2,7 @@
 
 `--ray-address` names the cluster (None: a local Ray is started, `ray_num_cpus` CPUs). A driver
 thread per job follows the task's record stream and writes metrics, heartbeats and the job's end
-through the same `JobRecorder` as the local worker. Cancel and shutdown cancel the task
+through `job_follower.follow_job`, exactly as for the local executor. Cancel and shutdown cancel the task
 (`ray.cancel(force=True)` ends its worker process); the job then resumes from its last periodic
 checkpoint when re-queued. Ray is an optional extra: `pip install 'dualsys[ray]'`.
 """
@@ -17,12 +17,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from registry import PolicyRegistry, RegistryError
+from registry import PolicyRegistry
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
-from service.errors import JobKindUnavailable, LostOwnership
+from service.errors import JobKindUnavailable
 from service.executors.base import WorkerExit
-from service.job_kinds import job_kind
+from service.job_follower import follow_job
 from service.job_recorder import JobRecorder
 from service.job_store import ClaimedJob
 from service.settings import ServiceSettings
@@ -49,7 +49,7 @@ def _cause_message(error: BaseException) -> str:
 class RayExecutor:
     name = "ray"
 
-    def __init__(self, settings: ServiceSettings, owner: str) -> None:
+    def __init__(self, settings: ServiceSettings, owner: str, database: Database | None = None) -> None:
         import ray
 
         self.ray = ray
@@ -66,8 +66,9 @@ class RayExecutor:
         from service.executors.ray_task import run_job_stream
 
         self._remote = ray.remote(num_cpus=1, max_retries=0)(run_job_stream)
-        self.database = Database(settings.database_url)
+        self.database = database or Database(settings.database_url)
         self.store = ArtifactStore(settings.artifacts)
+        self.registry = PolicyRegistry(self.database, self.store)
         self._jobs: dict[int, _RayJob] = {}
         self._exits: queue.Queue[WorkerExit] = queue.Queue()
         self._lock = threading.Lock()
@@ -102,21 +103,19 @@ class RayExecutor:
         )
         code, detail = 0, f"ray task of job {job.id} finished"
         try:
-            summary: dict[str, Any] | None = None
-            for reference in entry.stream:
-                item = self.ray.get(reference)
-                if item["type"] == "metric":
-                    recorder.record_metric(item["record"])
-                elif item["type"] == "heartbeat":
-                    reply = recorder.heartbeat()
-                    if not reply.still_owner:
-                        raise LostOwnership(f"job {job.id} was taken over")
-                elif item["type"] == "result":
-                    summary = item["summary"]
-            self._succeed(recorder, job, run_dir, summary or {})
-        except LostOwnership:
-            self._cancel_task(entry)
-            code, detail = 4, f"ray task of job {job.id} lost its job"
+            outcome = follow_job(
+                (self.ray.get(reference) for reference in entry.stream),
+                recorder=recorder,
+                registry=self.registry,
+                job=job,
+                run_dir=run_dir,
+                heartbeat_interval_s=self.settings.heartbeat_interval_s,
+            )
+            if outcome.kind == "lost":
+                self._cancel_task(entry)
+                code, detail = 4, f"ray task of job {job.id} lost its job"
+            elif outcome.kind != "finished":
+                code, detail = 1, f"ray task of job {job.id} ended without a result"
         except JobKindUnavailable as error:
             recorder.finish("failed", reason=_cause_message(error).partition(": ")[2])
         except Exception as error:
@@ -135,22 +134,6 @@ class RayExecutor:
             for name in ("TaskCancelledError", "WorkerCrashedError")
             if hasattr(exceptions, name)
         )
-
-    def _succeed(
-        self, recorder: JobRecorder, job: ClaimedJob, run_dir: Path, summary: dict[str, Any]
-    ) -> None:
-        kind = job_kind(job.kind)
-        try:
-            registry = PolicyRegistry(self.database, self.store)
-            extra = kind.after_success(
-                registry, job.id, kind.spec_model.model_validate(job.spec), job.resolved, run_dir, summary
-            )
-        except RegistryError as error:
-            recorder.finish(
-                "failed", summary=summary, reason=f"finished, but registering the result failed: {error}"
-            )
-            return
-        recorder.finish("succeeded", summary={**summary, **extra})
 
     def _cancel_task(self, entry: _RayJob) -> None:
         entry.cancelled.set()

@@ -26,7 +26,7 @@ def run_job_stream(
     heartbeat_s: float,
 ) -> Iterator[dict[str, Any]]:
     from service.job_execution import execute_job
-    from service.job_recorder import jsonable
+    from service.json_values import jsonable
 
     items: queue.Queue[tuple[str, Any]] = queue.Queue()
 

@@ -1,0 +1,146 @@
+"""Latency of the job service under load: p50/p99 of `GET /jobs` and `POST /jobs` from 20 concurrent
+clients while a training job runs (goal: p99 < 50 ms). Prints JSON figures; never asserts.
+
+The service runs as a real uvicorn process on a loopback port with a SQLite file in a temporary
+folder and one worker slot, which the training job holds: the submitted `probe` jobs stay queued,
+so the measurement sees the API and the database while the trainer competes for the CPU.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import shutil
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import httpx
+
+PROJECT_ROOT = Path(__file__).resolve().parents[1]
+TOKEN = "bench-token"
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _percentile(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    if not ordered:
+        return float("nan")
+    index = min(len(ordered) - 1, max(0, round(q / 100 * (len(ordered) - 1))))
+    return ordered[index]
+
+
+def _summary(latencies: list[float], errors: int) -> dict[str, Any]:
+    milliseconds = [1000 * v for v in latencies]
+    return {
+        "requests": len(milliseconds),
+        "errors": errors,
+        "p50_ms": round(_percentile(milliseconds, 50), 2),
+        "p99_ms": round(_percentile(milliseconds, 99), 2),
+        "mean_ms": round(statistics.fmean(milliseconds), 2) if milliseconds else None,
+        "max_ms": round(max(milliseconds), 2) if milliseconds else None,
+    }
+
+
+async def _load(url: str, clients: int, seconds: float) -> dict[str, Any]:
+    latencies: dict[str, list[float]] = {"GET /jobs": [], "POST /jobs": []}
+    errors = {"GET /jobs": 0, "POST /jobs": 0}
+    headers = {"Authorization": f"Bearer {TOKEN}"}
+    limits = httpx.Limits(max_connections=clients, max_keepalive_connections=clients)
+    deadline = time.perf_counter() + seconds
+    body = {"kind": "probe", "spec": {"episodes": 1, "interval_s": 0}}
+    async with httpx.AsyncClient(base_url=url, headers=headers, limits=limits, timeout=30) as client:
+
+        async def one_client(index: int) -> None:
+            turn = index
+            while time.perf_counter() < deadline:
+                name = "GET /jobs" if turn % 2 == 0 else "POST /jobs"
+                turn += 1
+                started = time.perf_counter()
+                if name == "GET /jobs":
+                    response = await client.get("/jobs", params={"limit": 20})
+                    ok = response.status_code == 200
+                else:
+                    response = await client.post("/jobs", json=body)
+                    ok = response.status_code == 202
+                latencies[name].append(time.perf_counter() - started)
+                errors[name] += not ok
+
+        await asyncio.gather(*(one_client(i) for i in range(clients)))
+    return {name: _summary(latencies[name], errors[name]) for name in latencies}
+
+
+def measure(seconds: float = 10.0, clients: int = 20) -> dict[str, Any]:
+    """Start a service, start a training job, load the API for `seconds`, stop everything."""
+    folder = Path(tempfile.mkdtemp(prefix="dualsys-bench-service-"))
+    port = _free_port()
+    environment = {k: v for k, v in os.environ.items() if not k.startswith("DUALSYS_")}
+    environment.update(
+        DUALSYS_DATABASE_URL=f"sqlite:///{folder / 'bench.db'}",
+        DUALSYS_ARTIFACTS=str(folder / "artifacts"),
+        DUALSYS_PORT=str(port),
+        DUALSYS_TOKEN=TOKEN,
+        DUALSYS_WORKERS="1",
+        PYTHONPATH=os.pathsep.join([str(PROJECT_ROOT), os.environ.get("PYTHONPATH", "")]),
+    )
+    log = open(folder / "server.log", "wb")  # noqa: SIM115 - closed below
+    server = subprocess.Popen(
+        [sys.executable, "-m", "service.server"], env=environment, stdout=log, stderr=log
+    )
+    url = f"http://127.0.0.1:{port}"
+    try:
+        with httpx.Client(base_url=url, headers={"Authorization": f"Bearer {TOKEN}"}, timeout=30) as client:
+            deadline = time.monotonic() + 60
+            while True:
+                try:
+                    if client.get("/health").status_code == 200:
+                        break
+                except httpx.HTTPError:
+                    pass
+                if time.monotonic() > deadline or server.poll() is not None:
+                    raise RuntimeError(f"the service did not start; see {folder / 'server.log'}")
+                time.sleep(0.2)
+            train = {"algo": "ddpg", "episodes": 1_000_000, "overrides": {"run.eval_every": 0}}
+            job = client.post("/jobs", json={"kind": "train", "spec": train}).json()
+            while client.get(f"/jobs/{job['id']}").json()["progress"]["episode"] < 1:
+                if time.monotonic() > deadline + 120:
+                    raise RuntimeError("the training job did not start")
+                time.sleep(0.2)
+            before = client.get(f"/jobs/{job['id']}").json()["progress"]["episode"]
+            results = asyncio.run(_load(url, clients, seconds))
+            after = client.get(f"/jobs/{job['id']}").json()
+            client.post(f"/jobs/{job['id']}/cancel")
+        return {
+            "clients": clients,
+            "seconds": seconds,
+            "training_job_status": after["status"],
+            "training_episodes_during_load": after["progress"]["episode"] - before,
+            **{f"{name} {key}": value for name, figures in results.items() for key, value in figures.items()},
+            "goal_p99_ms": 50,
+            "cpu_count": os.cpu_count(),
+            "load_average_1m": round(os.getloadavg()[0], 2),
+        }
+    finally:
+        server.terminate()
+        try:
+            server.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            server.kill()
+        log.close()
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    import json
+
+    print(json.dumps(measure()))

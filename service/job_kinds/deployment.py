@@ -1,9 +1,11 @@
-"""The `align`, `eval` and `export` kinds: thin calls into the deployment library functions.
+"""The `align`, `eval` and `export` kinds: thin calls into the deployment library functions
+(`sim2real.align_encoder`, `core.deploy.evaluate_policy`, `core.deploy.export_onnx`).
 
-Decisions: the policy is the checkpoint of the version resolved at submission; `align` registers
-its output as the next version of `spec.name` (default `<source>-aligned`) with the source version
-as parent; `export` attaches the ONNX file to the source version. Options left None are not passed,
-so the library's own defaults apply.
+Decisions: the policy is the checkpoint of the version resolved at submission; `align` writes the
+aligned run directory to `<run_dir>/aligned` and registers it as the next version of `spec.name`
+(default `<source>-aligned`) with the source version as parent; `export` attaches the ONNX file to
+the source version; `eval` with `onnx` uses the version's exported ONNX when it has one. Options
+left None are not passed, so the library's own defaults apply.
 """
 
 from __future__ import annotations
@@ -20,20 +22,22 @@ from service.job_kinds.library import as_summary, call_with_options, library_fun
 from service.job_kinds.policy_input import resolve_policy_input
 from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec
 
-ALIGN_FUNCTIONS = [("sim2real.align", "align_policy")]
-EVAL_FUNCTIONS = [("core.evaluation", "evaluate_policy"), ("core.deploy", "evaluate_policy")]
-EXPORT_FUNCTIONS = [("core.deploy", "export_onnx"), ("core.export", "export_onnx")]
+ALIGN_FUNCTIONS = [("sim2real", "align_encoder"), ("sim2real.alignment", "align_encoder")]
+EVAL_FUNCTIONS = [("core.deploy", "evaluate_policy")]
+EXPORT_FUNCTIONS = [("core.deploy", "export_onnx")]
+ALIGNED_FOLDER = "aligned"
+"""The aligned run directory inside an align job's run directory (registered as the new version)."""
 
 
 def run_align(context: JobContext) -> dict[str, Any]:
     spec = context.spec
     assert isinstance(spec, AlignSpec)
-    align_policy = library_function("align", ALIGN_FUNCTIONS)
+    align_encoder = library_function("align", ALIGN_FUNCTIONS)
     result = call_with_options(
-        align_policy,
-        Path(context.resolved["checkpoint"]),
-        Path(spec.pairs_dir),
-        out_dir=context.run_dir,
+        align_encoder,
+        policy_path=Path(context.resolved["checkpoint"]),
+        pairs_dir=Path(spec.pairs_dir).expanduser(),
+        out_dir=context.run_dir / ALIGNED_FOLDER,
         epochs=spec.epochs,
         batch_size=spec.batch_size,
     )
@@ -44,20 +48,26 @@ def run_eval(context: JobContext) -> dict[str, Any]:
     spec = context.spec
     assert isinstance(spec, EvalSpec)
     evaluate = library_function("eval", EVAL_FUNCTIONS)
-    source = context.resolved["onnx"] if spec.onnx else context.resolved["checkpoint"]
+    # an exported ONNX of the version is used as it is; otherwise the checkpoint (exported on the fly)
+    source = (
+        context.resolved["onnx"]
+        if spec.onnx and context.resolved.get("onnx")
+        else context.resolved["checkpoint"]
+    )
     if source is None:
-        raise ValueError(
-            f"{context.resolved['policy']} has no {'ONNX' if spec.onnx else 'checkpoint'} artifact"
-        )
+        raise ValueError(f"{context.resolved['policy']} has no checkpoint to evaluate")
     result = call_with_options(
         evaluate,
-        Path(source),
+        policy_path=Path(source),
         trials=spec.trials,
         max_steps=spec.max_steps,
         domain=spec.domain,
         seed=spec.seed,
+        onnx=spec.onnx,
     )
-    return as_summary(result)
+    summary = as_summary(result)
+    summary.pop("per_trial", None)  # kept in the job's log; the summary stays small
+    return summary
 
 
 def run_export(context: JobContext) -> dict[str, Any]:
@@ -65,7 +75,7 @@ def run_export(context: JobContext) -> dict[str, Any]:
     assert isinstance(spec, ExportSpec)
     export = library_function("export", EXPORT_FUNCTIONS)
     out = context.run_dir / spec.out
-    result = call_with_options(export, Path(context.resolved["checkpoint"]), out)
+    result = call_with_options(export, policy_path=Path(context.resolved["checkpoint"]), out=out)
     if not out.is_file():
         raise RuntimeError(f"export finished without writing {spec.out}")
     return {"onnx": spec.out, **as_summary(result)}

@@ -1,8 +1,9 @@
 """Finding the library function a job kind calls, failing cleanly when it is not installed.
 
-align/eval/export call functions owned by other packages (`sim2real.align.align_policy`,
-`core.evaluation`, `core.deploy`). When the module or the function is missing the job fails with
-a `JobKindUnavailable` reason naming what is missing; the worker never crashes on it.
+align/eval/export call functions owned by other packages (`sim2real.align_encoder`,
+`core.deploy.evaluate_policy`, `core.deploy.export_onnx`, all keyword-only). When the module or
+the function is missing, the job fails with a `JobKindUnavailable` reason naming what is missing;
+the worker never crashes on it.
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ def library_function(kind: str, candidates: list[tuple[str, str]]) -> Callable[.
 
 
 def call_with_options(function: Callable[..., Any], *args: Any, **options: Any) -> Any:
-    """Call `function`, passing only the options it declares (None values are left to its defaults)."""
+    """Call `function` with the options it declares; None values are left to its own defaults."""
     parameters = inspect.signature(function).parameters
     takes_any = any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values())
     chosen = {k: v for k, v in options.items() if v is not None and (takes_any or k in parameters)}

@@ -94,14 +94,29 @@ def test_submit_follow_download_register_alias(start_service: Callable[..., Live
         listing = client.get("/policies").json()
         assert listing["data"][0]["name"] == "grasp" and listing["data"][0]["aliases"] == {"champion": 1}
 
-        # a job that takes a policy resolves name@alias to a fixed version at submission
-        evaluation = submit(client, "eval", policy="grasp@champion", trials=1, max_steps=2)
-        assert evaluation["resolved"]["policy"] == "grasp@1"
-        assert evaluation["resolved"]["checkpoint"].endswith("policies/grasp/v1/checkpoints/best.pt")
-        finished = wait_status(client, evaluation["id"], FINISHED, timeout=120)
-        assert finished["status"] in ("succeeded", "failed")  # never a crashed worker
-        if finished["status"] == "failed":
-            assert finished["reason"], finished
+        # jobs that take a policy resolve name@alias to a fixed version at submission
+        exported = submit(client, "export", policy="grasp@champion")
+        assert exported["resolved"]["policy"] == "grasp@1"
+        assert exported["resolved"]["checkpoint"].endswith("policies/grasp/v1/checkpoints/best.pt")
+        evaluation = submit(client, "eval", policy="grasp@champion", trials=2, max_steps=3, domain="real")
+        exported = wait_status(client, exported["id"], FINISHED, timeout=180)
+        assert exported["status"] == "succeeded", exported
+        assert exported["summary"]["attached_to"] == "grasp@1"
+        onnx = client.get("/policies/grasp/versions/1").json()["artifacts"]
+        assert any(a["name"] == "policy.onnx" and a["kind"] == "onnx" for a in onnx)
+        evaluation = wait_status(client, evaluation["id"], FINISHED, timeout=180)
+        assert evaluation["status"] == "succeeded", evaluation
+        assert evaluation["summary"]["trials"] == 2 and 0.0 <= evaluation["summary"]["success_rate"] <= 1.0
+        pairs = service.folder / "pairs"
+        from sim2real import generate_pairs
+
+        generate_pairs(n=12, out=pairs, seed=0)
+        aligned = submit(client, "align", policy="grasp@1", pairs_dir=str(pairs), epochs=2, batch_size=4)
+        aligned = wait_status(client, aligned["id"], FINISHED, timeout=180)
+        assert aligned["status"] == "succeeded", aligned
+        assert aligned["summary"]["registered"] == "grasp-aligned@1"
+        lineage = client.get("/policies/grasp-aligned/versions/1").json()
+        assert lineage["parent"] == "grasp@1" and lineage["source_job_id"] == aligned["id"]
 
         # errors name the reason
         assert client.put("/policies/grasp/aliases/champion", json={"version": 7}).status_code == 404

@@ -5,11 +5,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel
 
-from registry import PolicyRegistry
+if TYPE_CHECKING:
+    from registry import PolicyRegistry
 
 
 @dataclass

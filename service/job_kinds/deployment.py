@@ -11,16 +11,19 @@ left None are not passed, so the library's own defaults apply.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel
 
-from registry import PolicyRegistry, parse_policy_ref
+from registry.references import parse_policy_ref
 from service.errors import SpecRejected
 from service.job_kinds.base import JobContext, Submission
 from service.job_kinds.library import as_summary, call_with_options, library_function
 from service.job_kinds.policy_input import resolve_policy_input
 from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec
+
+if TYPE_CHECKING:
+    from registry import PolicyRegistry
 
 ALIGN_FUNCTIONS = [("sim2real", "align_encoder"), ("sim2real.alignment", "align_encoder")]
 EVAL_FUNCTIONS = [("core.deploy", "evaluate_policy")]

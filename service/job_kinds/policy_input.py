@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from pydantic import BaseModel
 
-from registry import PolicyRegistry, RegistryError
+from registry.errors import RegistryError
 from service.errors import SpecRejected
 from service.job_kinds.base import Submission
+
+if TYPE_CHECKING:
+    from registry import PolicyRegistry
 
 
 def resolve_policy_input(spec: BaseModel, registry: PolicyRegistry) -> Submission:

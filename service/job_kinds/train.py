@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel
 
-from registry import PolicyRegistry
 from service.errors import JobKindUnavailable, SpecRejected
 from service.job_kinds.base import JobContext, Submission
 from service.schemas.specs import TrainSpec
+
+if TYPE_CHECKING:
+    from registry import PolicyRegistry
 
 LATEST_CHECKPOINT = Path("checkpoints") / "latest.pt"
 

@@ -40,6 +40,15 @@ def _percentile(values: list[float], q: float) -> float:
     return ordered[index]
 
 
+def _process_cpu_s(pid: int) -> float:
+    """User + system CPU seconds of a process (Linux /proc; NaN elsewhere)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
 def _summary(latencies: list[float], errors: int) -> dict[str, Any]:
     milliseconds = [1000 * v for v in latencies]
     return {
@@ -117,9 +126,14 @@ def measure(seconds: float = 10.0, clients: int = 20) -> dict[str, Any]:
                     raise RuntimeError("the training job did not start")
                 time.sleep(0.2)
             before = client.get(f"/jobs/{job['id']}").json()["progress"]["episode"]
+            server_cpu = _process_cpu_s(server.pid)
+            client_cpu = time.process_time()
             results = asyncio.run(_load(url, clients, seconds))
+            client_cpu = time.process_time() - client_cpu
+            server_cpu = _process_cpu_s(server.pid) - server_cpu
             after = client.get(f"/jobs/{job['id']}").json()
             client.post(f"/jobs/{job['id']}/cancel")
+        requests = sum(figures["requests"] for figures in results.values())
         return {
             "clients": clients,
             "seconds": seconds,
@@ -127,6 +141,9 @@ def measure(seconds: float = 10.0, clients: int = 20) -> dict[str, Any]:
             "training_episodes_during_load": after["progress"]["episode"] - before,
             **{f"{name} {key}": value for name, figures in results.items() for key, value in figures.items()},
             "goal_p99_ms": 50,
+            "requests_per_s": round(requests / seconds, 1),
+            "server_cpu_ms_per_request": round(1000 * server_cpu / max(requests, 1), 2),
+            "client_cpu_ms_per_request": round(1000 * client_cpu / max(requests, 1), 2),
             "cpu_count": os.cpu_count(),
             "load_average_1m": round(os.getloadavg()[0], 2),
         }

@@ -72,3 +72,17 @@ def bench_onnx(
     with user_errors():
         result = measure(policy=policy, repeats=repeats, threads=threads)
     _emit(result, as_json)
+
+
+@app.command("service")
+def bench_service(
+    seconds: float = typer.Option(10.0, min=1.0, help="Seconds of load."),
+    clients: int = typer.Option(20, min=1, max=200, help="Concurrent HTTP clients."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
+) -> None:
+    """p50/p99 of GET and POST /jobs under concurrent clients while a training job runs (goal p99 < 50 ms)."""
+    from bench.service_speed import measure
+
+    with user_errors():
+        result = measure(seconds=seconds, clients=clients)
+    _emit(result, as_json)

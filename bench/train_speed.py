@@ -4,6 +4,9 @@ Methods (``--algos``):
 
 * ``ddpg`` / ``cacla`` — dualsys' model-free agent with the default profile (strided encoder, critic-
   autoencoder update of Eq. 4 incl. the decoder, actor update, τ targets), per-step schedule.
+* any other registered method (``im2c``, ``i2a``, ``mve``, ``cmc``, ``la-imagination``) — its default-profile
+  agent, per-step schedule, the same loop (so a dual-system step includes its meta-control, model learning
+  and, for I2A, the pixel + latent update).
 * ``sb3-ddpg`` — Stable-Baselines3's DDPG (the tool a user would pick instead) on the same env with the
   same encoder shape (our ``Encoder`` as its features extractor, so conv stack + dense to 32), heads of
   20 units, the same batch size and buffer size, ``train_freq=1, gradient_steps=1``. SB3 has no decoder
@@ -29,6 +32,14 @@ from core.config import Config, load_config
 from core.trainer import env_spec, make_env
 
 METHODS = ("ddpg", "cacla", "sb3-ddpg")
+"""The model-free methods and the SB3 reference; every method in ``core.algos`` is accepted too."""
+
+
+def known_methods() -> tuple[str, ...]:
+    """``METHODS`` plus every registered algo (the dual-system methods register on import)."""
+    from core.algos import load_algos
+
+    return tuple(dict.fromkeys((*METHODS, *sorted(load_algos()))))
 
 
 def _config(algo: str, batch: int | None, buffer: int) -> Config:
@@ -118,9 +129,10 @@ def measure(algos: tuple[str, ...] = ("ddpg", "sb3-ddpg"), batch: int | None = N
             warmup: int = 300, rounds: int = 2, buffer: int = 100_000, seed: int = 0,
             threads: int = 2) -> dict[str, Any]:
     """ms per training step for each method (median over ``rounds`` alternating rounds)."""
-    unknown = [name for name in algos if name not in METHODS]
+    known = known_methods()
+    unknown = [name for name in algos if name not in known]
     if unknown:
-        raise ValueError(f"unknown bench method {unknown[0]!r} (choose from {', '.join(METHODS)})")
+        raise ValueError(f"unknown bench method {unknown[0]!r} (choose from {', '.join(known)})")
     torch.set_num_threads(threads)
     samples: dict[str, list[float]] = {name: [] for name in algos}
     batches: dict[str, int] = {}

@@ -44,7 +44,8 @@ def bench_modelbank(
 
 @app.command("train")
 def bench_train(
-    algos: str = typer.Option("ddpg,sb3-ddpg", help="Comma-separated methods: ddpg, cacla, sb3-ddpg."),
+    algos: str = typer.Option("ddpg,sb3-ddpg", help="Comma-separated methods: sb3-ddpg or any --algo "
+                              "(ddpg, cacla, im2c, i2a, mve, cmc, la-imagination)."),
     batch: int = typer.Option(None, min=1, help="Minibatch size (default: the default profile's)."),
     steps: int = typer.Option(300, min=10, help="Timed training steps per method and round."),
     rounds: int = typer.Option(2, min=1, help="Alternating rounds; the median is reported."),

@@ -97,3 +97,12 @@ def test_eval_through_onnx_gives_the_same_trials_as_pytorch(tiny_run, exported):
     torch_report = evaluate_policy(policy_path=tiny_run, trials=3, max_steps=4, seed=5)
     onnx_report = evaluate_policy(policy_path=exported.path, trials=3, max_steps=4, seed=5)
     assert onnx_report.per_trial == torch_report.per_trial
+
+
+def test_eval_with_onnx_flag_exports_a_checkpoint_on_the_fly(tiny_run):
+    torch_report = evaluate_policy(policy_path=tiny_run, trials=2, max_steps=3, seed=9, domain="real")
+    onnx_report = evaluate_policy(policy_path=tiny_run, trials=2, max_steps=3, seed=9, domain="real",
+                                  onnx=True)
+    assert onnx_report.per_trial == torch_report.per_trial
+    with pytest.raises(ValueError, match="unknown domain"):
+        evaluate_policy(policy_path=tiny_run, trials=1, domain="lab")

@@ -92,16 +92,16 @@ def get_job(database: Database, *, job_id: int) -> Job:
 
 def list_jobs(
     database: Database, *, status: str | None, kind: str | None, offset: int, limit: int
-) -> tuple[list[Job], int]:
-    """A page of jobs, newest first, and the number matching the filter."""
-    query = select(Job)
+) -> tuple[list[Any], int]:
+    """A page of jobs (Core row objects with Job's attribute names), newest first, and the count."""
+    query = select(*Job.__table__.columns)
     counter = select(func.count()).select_from(Job)
     if status is not None:
         query, counter = query.where(Job.status == status), counter.where(Job.status == status)
     if kind is not None:
         query, counter = query.where(Job.kind == kind), counter.where(Job.kind == kind)
     with database.read() as session:
-        rows = list(session.scalars(query.order_by(Job.id.desc()).offset(offset).limit(limit)))
+        rows = list(session.execute(query.order_by(Job.id.desc()).offset(offset).limit(limit)))
         return rows, int(session.scalar(counter) or 0)
 
 

@@ -23,7 +23,8 @@ class ServiceState:
     supervisor: Supervisor | None
 
 
-def get_state(request: Request) -> ServiceState:
+async def get_state(request: Request) -> ServiceState:
+    """Async on purpose: FastAPI runs sync dependencies in the thread pool (one more hop per request)."""
     return request.app.state.service
 
 
@@ -31,7 +32,7 @@ StateDep = Annotated[ServiceState, Depends(get_state)]
 _bearer = HTTPBearer(auto_error=False, description="DUALSYS_TOKEN, required by every mutating endpoint.")
 
 
-def require_token(
+async def require_token(
     state: StateDep, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]
 ) -> None:
     """401 unless the request carries `Authorization: Bearer <DUALSYS_TOKEN>` (when a token is set)."""

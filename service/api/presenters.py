@@ -2,11 +2,26 @@
 
 from __future__ import annotations
 
+from typing import Any
+
+from fastapi import Response
+from pydantic import BaseModel
+
 from service.models import Job, JobArtifact, JobMetric
 from service.schemas.jobs import ArtifactPublic, JobProgress, JobPublic, MetricPublic
 
 
-def job_public(job: Job) -> JobPublic:
+def json_response(
+    model: BaseModel, status_code: int = 200, headers: dict[str, str] | None = None
+) -> Response:
+    """Serialise once with pydantic-core; returning a Response also skips FastAPI's second validation."""
+    return Response(
+        model.model_dump_json(), status_code=status_code, media_type="application/json", headers=headers
+    )
+
+
+def job_public(job: Job | Any) -> JobPublic:
+    """From an ORM row or a Core row mapping with the same column names."""
     return JobPublic(
         id=job.id,
         kind=job.kind,  # type: ignore[arg-type]

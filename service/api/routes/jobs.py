@@ -5,13 +5,13 @@ from __future__ import annotations
 from typing import Annotated
 
 from fastapi import APIRouter, Header, HTTPException, Query, Request, Response, status
-from fastapi.responses import FileResponse, JSONResponse, StreamingResponse
+from fastapi.responses import FileResponse, StreamingResponse
 
 from registry.artifact_store import ArtifactStore
 from service import job_store
 from service.api.deps import MutationAuth, StateDep
 from service.api.events import job_events, parse_last_event_id
-from service.api.presenters import artifact_public, job_public, metric_public
+from service.api.presenters import artifact_public, job_public, json_response, metric_public
 from service.job_kinds import job_kind
 from service.models import FINISHED_STATUSES
 from service.schemas.errors import ErrorPublic
@@ -33,7 +33,6 @@ ERRORS = {
     413: {"model": ErrorPublic},
     422: {"model": ErrorPublic},
 }
-JobId = Annotated[int, Query(ge=1)]
 
 
 @router.post(
@@ -47,7 +46,7 @@ def submit_job(
     body: JobCreate,
     state: StateDep,
     idempotency_key: Annotated[str | None, Header(max_length=128)] = None,
-) -> JSONResponse:
+) -> Response:
     """Queue a job; answers 202 with its id at once. A worker process does the work."""
     kind = job_kind(body.kind)
     submission = kind.prepare(body.spec, state.registry)
@@ -61,9 +60,9 @@ def submit_job(
     )
     if state.supervisor is not None:
         state.supervisor.wake()
-    return JSONResponse(
+    return json_response(
+        job_public(job),
         status_code=status.HTTP_202_ACCEPTED if created else status.HTTP_200_OK,
-        content=job_public(job).model_dump(mode="json"),
         headers={"Location": f"/jobs/{job.id}"},
     )
 
@@ -84,8 +83,8 @@ def list_jobs(
 
 
 @router.get("/{job_id}", response_model=JobPublic, responses=ERRORS)
-def get_job(job_id: int, state: StateDep) -> JobPublic:
-    return job_public(job_store.get_job(state.database, job_id=job_id))
+def get_job(job_id: int, state: StateDep) -> Response:
+    return json_response(job_public(job_store.get_job(state.database, job_id=job_id)))
 
 
 @router.post(

@@ -24,6 +24,9 @@ def test_paper_profile_holds_section_4_1_1_values():
     assert (paper.dual.plan_steps, paper.dual.plan_lr) == (10, 1e-3)
     assert (paper.dual.pixel_buffer_size, paper.dual.latent_buffer_size) == (60_000, 200_000)
     assert paper.run.episodes == 10_000 and paper.env.max_steps == 50
+    # the text is explicit where the released code differs: random positions, −d shaping, learned hand
+    env = paper.env
+    assert (env.fixed_positions, env.dense_shaping, env.hand) == (None, "distance", "learned")
 
 
 def test_profiles_are_fresh_objects():

@@ -46,7 +46,7 @@ def _events(client, job_id: int) -> list[tuple[str, dict]]:  # type: ignore[no-u
 
 
 def test_submit_follow_download_register_alias(start_service: Callable[..., LiveService]) -> None:
-    service = start_service()
+    service = start_service(workers=2)
     with service.client() as client:
         spec = {
             "algo": "ddpg",
@@ -130,8 +130,8 @@ def test_submit_follow_download_register_alias(start_service: Callable[..., Live
 
 def test_train_job_survives_worker_kill_and_service_crash(start_service: Callable[..., LiveService]) -> None:
     service = start_service()
-    episodes = 36
-    spec = {"algo": "ddpg", "episodes": episodes, "overrides": {**TINY, "env.max_steps": 25}}
+    episodes = 30
+    spec = {"algo": "ddpg", "episodes": episodes, "overrides": {**TINY, "env.max_steps": 20}}
     with service.client() as client:
         created = submit(client, "train", **spec)
 
@@ -143,7 +143,7 @@ def test_train_job_survives_worker_kill_and_service_crash(start_service: Callabl
 
             return check
 
-        first = wait_for(at_least(6, 1), timeout=120, interval=0.05, what="attempt 1 at episode 6")
+        first = wait_for(at_least(5, 1), timeout=120, interval=0.05, what="attempt 1 at episode 5")
         os.kill(first["worker_pid"], signal.SIGKILL)
         second = wait_for(
             at_least(first["progress"]["episode"] + 5, 2), timeout=120, interval=0.05, what="attempt 2"

@@ -10,7 +10,9 @@ import os
 import signal
 from collections.abc import Callable
 
-from tests.utils.jobs import FINISHED, job, metrics, submit, wait_progress, wait_status
+from registry.database import Database
+from service import job_store
+from tests.utils.jobs import FINISHED, metrics, submit, wait_progress, wait_status
 from tests.utils.live_service import LiveService, wait_for
 
 
@@ -58,14 +60,12 @@ def test_graceful_restart_requeues_then_resumes(start_service: Callable[..., Liv
         created = submit(client, "probe", episodes=25, interval_s=0.06)
         wait_progress(client, created["id"], 6)
     assert service.stop() in (0, -signal.SIGTERM)  # uvicorn re-raises the signal after its shutdown
-    service.settings["run_jobs"] = "false"  # look at the queue before any worker picks it up
-    service.start()
-    with service.client() as client:
-        parked = job(client, created["id"])
-        assert parked["status"] == "queued" and parked["resume"] is True
-        assert "the service stopped" in parked["reason"]
-    service.stop()
-    service.settings["run_jobs"] = "true"
+    # read the queue straight from the database, before a new service could pick the job up
+    database = Database(service.settings["database_url"])
+    parked = job_store.get_job(database, job_id=created["id"])
+    database.dispose()
+    assert parked.status == "queued" and parked.resume is True and parked.owner is None
+    assert "the service stopped" in parked.reason
     service.start()
     with service.client() as client:
         done = wait_status(client, created["id"], FINISHED)

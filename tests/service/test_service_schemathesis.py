@@ -26,7 +26,7 @@ def test_schemathesis_finds_no_server_error(start_service: Callable[..., LiveSer
         "--checks",
         "not_a_server_error",
         "--max-examples",
-        "15",
+        "10",
         "--seed",
         "7",
         "--header",

@@ -55,6 +55,8 @@ class LiveService:
             "heartbeat_interval_s": "0.5",
             "poll_interval_s": "0.1",
             "cancel_grace_s": "3",
+            # normal priority for job processes: on a busy shared test machine niced jobs crawl
+            "worker_nice": "0",
             **{k: str(v) for k, v in settings.items()},
         }
         self.process: subprocess.Popen[bytes] | None = None

@@ -15,7 +15,9 @@ class VersionCreate(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    job_id: int = Field(ge=1, description="A succeeded job whose run directory holds a checkpoint.")
+    job_id: int = Field(
+        ge=1, le=2**63 - 1, description="A succeeded job whose run directory holds a checkpoint."
+    )
     parent: str | None = Field(default=None, description="The version this one derives from (name@VERSION).")
     tags: dict[str, str] = Field(default_factory=dict, max_length=100)
     description: str = Field(default="", max_length=10_000)
@@ -24,7 +26,7 @@ class VersionCreate(BaseModel):
 class AliasSet(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    version: int = Field(ge=1)
+    version: int = Field(ge=1, le=2**31 - 1)
 
 
 class TagSet(BaseModel):

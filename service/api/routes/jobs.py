@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Header, HTTPException, Query, Request, Response, status
+from fastapi import APIRouter, Header, HTTPException, Path, Query, Request, Response, status
 from fastapi.responses import FileResponse, StreamingResponse
 
 from registry.artifact_store import ArtifactStore
@@ -26,6 +26,7 @@ from service.schemas.jobs import (
 )
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
+JobId = Annotated[int, Path(ge=1, le=2**63 - 1, description="Job id.")]
 ERRORS = {
     401: {"model": ErrorPublic},
     404: {"model": ErrorPublic},
@@ -83,7 +84,7 @@ def list_jobs(
 
 
 @router.get("/{job_id}", response_model=JobPublic, responses=ERRORS)
-def get_job(job_id: int, state: StateDep) -> Response:
+def get_job(job_id: JobId, state: StateDep) -> Response:
     return json_response(job_public(job_store.get_job(state.database, job_id=job_id)))
 
 
@@ -94,7 +95,7 @@ def get_job(job_id: int, state: StateDep) -> Response:
     dependencies=[MutationAuth],
     responses=ERRORS,
 )
-def cancel_job(job_id: int, state: StateDep) -> JobPublic:
+def cancel_job(job_id: JobId, state: StateDep) -> JobPublic:
     """Cancel: a queued job at once; a running one's process is ended. 409 for a finished job."""
     job = job_store.request_cancel(state.database, job_id=job_id)
     if state.supervisor is not None:
@@ -105,7 +106,7 @@ def cancel_job(job_id: int, state: StateDep) -> JobPublic:
 @router.delete(
     "/{job_id}", status_code=status.HTTP_204_NO_CONTENT, dependencies=[MutationAuth], responses=ERRORS
 )
-def delete_job(job_id: int, state: StateDep) -> Response:
+def delete_job(job_id: JobId, state: StateDep) -> Response:
     """Delete a finished job, its metrics and its run directory. 409 unless finished."""
     job = job_store.delete_job(state.database, job_id=job_id)
     store = state.registry.store
@@ -115,7 +116,7 @@ def delete_job(job_id: int, state: StateDep) -> Response:
 
 @router.get("/{job_id}/metrics", response_model=MetricsPublic, responses=ERRORS)
 def job_metrics(
-    job_id: int,
+    job_id: JobId,
     state: StateDep,
     since: Annotated[int, Query(ge=0, le=10**9, description="Only episodes after this one.")] = 0,
     limit: Annotated[int, Query(ge=1, le=10_000)] = 1000,
@@ -130,7 +131,7 @@ def job_metrics(
     response_class=StreamingResponse,
 )
 async def job_event_stream(
-    job_id: int,
+    job_id: JobId,
     request: Request,
     state: StateDep,
     since: Annotated[int, Query(ge=0, le=10**9)] = 0,
@@ -148,7 +149,7 @@ async def job_event_stream(
 
 
 @router.get("/{job_id}/artifacts", response_model=ArtifactsPublic, responses=ERRORS)
-def job_artifacts(job_id: int, state: StateDep) -> ArtifactsPublic:
+def job_artifacts(job_id: JobId, state: StateDep) -> ArtifactsPublic:
     """Files recorded for the job: checkpoints as they are written, every file once it ends."""
     rows = job_store.list_artifacts(state.database, job_id=job_id)
     return ArtifactsPublic(data=[artifact_public(job_id, r) for r in rows], count=len(rows))
@@ -159,7 +160,7 @@ def job_artifacts(job_id: int, state: StateDep) -> ArtifactsPublic:
     response_class=FileResponse,
     responses={**ERRORS, 400: {"model": ErrorPublic}, 200: {"content": {"application/octet-stream": {}}}},
 )
-def download_job_artifact(job_id: int, name: str, state: StateDep) -> FileResponse:
+def download_job_artifact(job_id: JobId, name: str, state: StateDep) -> FileResponse:
     """Download one file of the job's run directory; paths cannot leave it."""
     job = job_store.get_job(state.database, job_id=job_id)
     store = state.registry.store

@@ -36,7 +36,8 @@ def test_schemathesis_finds_no_server_error(start_service: Callable[..., LiveSer
         "--request-timeout",
         "10",
     ]
-    result = subprocess.run(command, capture_output=True, text=True, timeout=240)
+    # run in the test's folder: schemathesis keeps a `.schemathesis/` example database in its cwd
+    result = subprocess.run(command, capture_output=True, text=True, timeout=240, cwd=service.folder)
     tail = result.stdout[-3000:] + result.stderr[-2000:]
     assert result.returncode == 0, tail
     assert " passed" in result.stdout and "failed" not in result.stdout.split("SUMMARY")[-1], tail

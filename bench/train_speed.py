@@ -127,8 +127,13 @@ def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> 
 
 def measure(algos: tuple[str, ...] = ("ddpg", "sb3-ddpg"), batch: int | None = None, steps: int = 300,
             warmup: int = 300, rounds: int = 2, buffer: int = 100_000, seed: int = 0,
-            threads: int = 2) -> dict[str, Any]:
-    """ms per training step for each method (median over ``rounds`` alternating rounds)."""
+            threads: int | None = None) -> dict[str, Any]:
+    """ms per training step for each method (median over ``rounds`` alternating rounds).
+
+    ``threads``: torch threads for both (default: the default profile's ``run.num_threads``).
+    """
+    if threads is None:
+        threads = load_config("default").run.num_threads
     known = known_methods()
     unknown = [name for name in algos if name not in known]
     if unknown:

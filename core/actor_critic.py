@@ -8,7 +8,8 @@ One minibatch update (Algorithm 2, lines 26-28) is :meth:`ActorCritic.update_pix
 2. ``critic_passes`` Adam steps on ``λ_rec · L_rec + λ_Q · L_Q`` over the same minibatch (Eq. 4), updating
    encoder ω, decoder ω̃ and critic θ^Q together. L_rec is the mean squared pixel error (Keras' MSE in the
    released code; the paper writes the squared norm, which only rescales λ_rec), L_Q the mean of Eq. 1.
-3. ``actor_passes`` steps of the actor strategy on φ = f(s) (detached: the actor never trains the encoder).
+3. ``actor_passes`` steps of the actor strategy on φ = f(s) from the last critic pass (detached: the actor
+   never trains the encoder; reusing that forward pass saves one encoder evaluation per update).
 4. ``θ′ ← τ θ + (1 − τ) θ′`` for encoder, critic and actor, one fused ``torch._foreach_lerp_``.
 
 :meth:`ActorCritic.update_latents` is the same update on latent transitions (critic head + actor only,

@@ -244,7 +244,7 @@ def _paper_profile() -> Config:
     """Section 4.1.1 values; the released code where the text is silent (see docs/config.md)."""
     return Config(
         run=RunConfig(episodes=10_000, eval_every=250, checkpoint_every=250),
-        env=EnvConfig(dense_shaping="distance", fixed_positions=None, max_steps=50),
+        env=EnvConfig(hand="learned", dense_shaping="distance", fixed_positions=None, max_steps=50),
         net=NetConfig(arch="paper", conv_channels=(16, 8, 4), latent_dim=32, critic_hidden=20,
                       actor_hidden=20, actor_activation="relu"),
         agent=AgentConfig(

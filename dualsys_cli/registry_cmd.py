@@ -23,12 +23,21 @@ ARTIFACTS = typer.Option(None, "--artifacts", help="Artifact root (default ./dua
 JSON = typer.Option(False, "--json", help="Print JSON.")
 
 
-def _registry(db: Path | None, artifacts: Path | None):  # type: ignore[no-untyped-def]
+def _registry(db: Path | None, artifacts: Path | None, *, create: bool = False):  # type: ignore[no-untyped-def]
+    """The registry of --db/--artifacts or the settings; only `register` may create a new database."""
+    from sqlalchemy.engine import make_url
+
     from registry import PolicyRegistry, RegistrySettings
     from registry.settings import sqlite_url
 
     given: dict[str, Any] = {"database_url": sqlite_url(db) if db else None, "artifacts": artifacts}
-    return PolicyRegistry.from_settings(RegistrySettings(**{k: v for k, v in given.items() if v is not None}))
+    settings = RegistrySettings(**{k: v for k, v in given.items() if v is not None})
+    url = make_url(settings.database_url)
+    if not create and url.get_backend_name() == "sqlite" and url.database and not Path(url.database).exists():
+        raise FileNotFoundError(
+            f"no policy registry at {url.database} (register a policy first, or pass --db)"
+        )
+    return PolicyRegistry.from_settings(settings)
 
 
 def _plain(record: Any) -> dict[str, Any]:
@@ -100,7 +109,7 @@ def register(
             if not sep:
                 raise ValueError(f"--tag {item!r} is not of the form key=value")
             tag_items[key.strip()] = value.strip()
-        registry = _registry(db, artifacts)
+        registry = _registry(db, artifacts, create=True)
         source_job = None
         if job is not None:
             run_dir, source_job = _job_run_dir(registry, job), job

@@ -112,3 +112,10 @@ def test_serve_refuses_a_public_address_without_a_token() -> None:
     assert code == 2 and out.strip().startswith("error: refusing to bind 0.0.0.0")
     code, out = _run(["serve", "--executor", "spark"], {})
     assert code == 2 and "unknown executor" in out
+
+
+def test_registry_reads_never_create_a_database(tmp_path: Path) -> None:
+    missing = tmp_path / "none.db"
+    code, out = _run(["registry", "list", "--db", str(missing)], {})
+    assert code == 2 and out.strip().startswith(f"error: no policy registry at {missing}")
+    assert not missing.exists()

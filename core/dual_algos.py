@@ -43,7 +43,7 @@ from core.algos import register_algo
 from core.config import Config
 from core.imagination import imagination_update, la_imagination_rollout
 from core.meta_controller import MetaController
-from core.planning import Rollout
+from core.planning import PlanResult, Rollout
 from core.replay import LatentReplay, PixelReplay
 from core.value_expansion import ValueExpansionActorCritic
 from core.world_models import LocalWorldModels
@@ -142,7 +142,7 @@ class DualSystemAgent(ModelFreeAgent):
         noisy = self.noise.perturb(action, self.steps, self.rng, spec.action_low, spec.action_high)  # line 20
         return noisy.astype(np.float32), {}
 
-    def _count_model_based(self, rollout: Rollout, plan: Any) -> None:
+    def _count_model_based(self, rollout: Rollout, plan: PlanResult | None) -> None:
         self.counters.horizons.append(rollout.depth)
         self.total_mb_decisions += 1
         if plan is not None:

@@ -73,8 +73,8 @@ def test_im2c_stores_nothing_imagined_and_stores_r_ext_plus_r_int() -> None:
     intrinsic = np.array(agent.counters.intrinsic, dtype=np.float32)
     np.testing.assert_allclose(stored, -0.25 + intrinsic, atol=1e-6)
     np.testing.assert_allclose(agent.replay.reward_ext[:10], -0.25)
-    # Released-code LP: the first error of a node gives LP = −1, so r_int = +1.
-    assert agent.counters.intrinsic[0] == pytest.approx(1.0)
+    # Released-code LP: the first error of a node gives LP = −1, so r_int = +c (the intrinsic scale).
+    assert agent.counters.intrinsic[0] == pytest.approx(agent.config.dual.intrinsic_scale)
 
 
 def test_greedy_act_is_mu_of_f_and_changes_no_learning_state() -> None:
@@ -235,7 +235,8 @@ def test_world_models_follow_itm_events_and_report_pre_update_error() -> None:
     feedback = world.learn_transition(0, torch.zeros(3), a, 0.5, torch.ones(3))
     expected = world.bank.errors(before.next_latent, before.reward, torch.ones(1, 3), torch.tensor([0.5]))
     assert feedback.error == pytest.approx(float(expected[0]), rel=1e-6)
-    assert feedback.intrinsic_reward == pytest.approx(-world.learning_progress(0))
+    scale = config.dual.intrinsic_scale
+    assert feedback.intrinsic_reward == pytest.approx(-scale * world.learning_progress(0))
     node = world.observe_state(torch.tensor([3.0, 0.0, 0.0]))
     assert node == 2 and world.num_nodes == 3
     assert world.lp.error_count(2)[0] == 0 and not world.reliable(2)

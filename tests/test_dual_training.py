@@ -61,3 +61,12 @@ def test_i2a_resume_continues_from_checkpoint(tmp_path) -> None:
 def test_panel_smoothing_skips_episodes_without_a_value() -> None:
     values = [np.nan, 2.0, np.nan, 4.0, 6.0]
     np.testing.assert_allclose(smooth_skipping_nan(values, 2), [np.nan, 2.0, 2.0, 4.0, 5.0])
+
+
+def test_bench_train_times_dual_algos() -> None:
+    from bench.train_speed import measure
+
+    result = measure(algos=("i2a", "mve"), steps=10, warmup=10, rounds=1, buffer=500, threads=1)
+    assert result["i2a"]["ms_per_step"] > 0 and result["mve"]["ms_per_step"] > 0
+    with pytest.raises(ValueError, match="unknown bench method"):
+        measure(algos=("i3a",), steps=10, warmup=10, rounds=1)

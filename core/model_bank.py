@@ -39,6 +39,7 @@ OutputActivation = Literal["linear", "released"]
 NodeInit = Literal["fresh", "parent"]
 ErrorNorm = Literal["squared", "l2"]
 
+
 @dataclass(frozen=True)
 class ModelPrediction:
     """Predicted next latents ``[B, latent]`` and rewards ``[B]``."""

@@ -80,7 +80,9 @@ class RayExecutor:
     def start(self, job: ClaimedJob) -> int | None:
         run_dir = self.store.confine(job.run_dir)
         run_dir.mkdir(parents=True, exist_ok=True)
-        stream = self._remote.options(num_returns="streaming", name=f"dualsys-job-{job.id}").remote(
+        stream = self._remote.options(
+            num_returns="streaming", _generator_backpressure_num_objects=1, name=f"dualsys-job-{job.id}"
+        ).remote(
             job.id,
             job.kind,
             job.spec,

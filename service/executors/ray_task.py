@@ -1,7 +1,13 @@
 """The function a Ray task runs for one job: a generator streaming its records back to the driver.
 
 The job runs in a thread of the Ray worker; the generator yields each episode record as it comes,
-a heartbeat when none came for `heartbeat_s`, and finally the summary. The driver (the service's
+a heartbeat when none came for `heartbeat_s`, and finally the summary.
+
+Acknowledged records, as with the local worker: the task is started with a generator back-pressure
+of one object, so each `yield` returns only once the driver has taken that item. After a record
+the generator yields a `barrier`; the driver takes the barrier only after it has committed the
+record, so when the barrier's `yield` returns the record is in the database, and only then does
+`emit` return to the job (which then writes the checkpoint covering it). The driver (the service's
 `RayExecutor`) writes them to the database, so metrics flow into the same tables as with the local
 executor, and the task itself needs no database access: only the artifact root, which must be a
 filesystem the cluster's workers share with the service (the local Ray of `ray.init()` does).
@@ -30,6 +36,11 @@ def run_job_stream(
 
     items: queue.Queue[tuple[str, Any]] = queue.Queue()
 
+    def emit(record: dict[str, Any]) -> None:
+        committed = threading.Event()
+        items.put(("metric", (record, committed)))
+        committed.wait()
+
     def work() -> None:
         try:
             summary = execute_job(
@@ -39,7 +50,7 @@ def run_job_stream(
                 resolved=resolved,
                 run_dir=Path(run_dir),
                 resume=resume,
-                emit=lambda record: items.put(("metric", record)),
+                emit=emit,
                 should_stop=lambda: False,  # Ray cancels the task's process instead
             )
             items.put(("result", summary))
@@ -54,7 +65,10 @@ def run_job_stream(
             yield {"type": "heartbeat"}
             continue
         if tag == "metric":
-            yield {"type": "metric", "record": jsonable(payload)}
+            record, committed = payload
+            yield {"type": "metric", "record": jsonable(record)}
+            yield {"type": "barrier"}  # returns once the driver has committed the record
+            committed.set()
         elif tag == "result":
             yield {"type": "result", "summary": jsonable(payload)}
             return

@@ -257,3 +257,21 @@ def test_health_and_openapi(client: httpx.Client) -> None:
         schema["paths"]
     )
     assert client.get("/docs").status_code == 200
+
+
+def test_records_are_committed_before_the_job_checkpoints_them(
+    service: LiveService, client: httpx.Client
+) -> None:
+    """Sampled invariant: whenever the checkpoint says episode k, the database already holds row k."""
+    created = submit(client, "probe", episodes=30, interval_s=0.02)
+    checkpoint = service.artifacts / "jobs" / str(created["id"]) / "checkpoints" / "latest.json"
+    samples = 0
+    while job(client, created["id"])["status"] in ("queued", "running"):
+        try:
+            episode = json.loads(checkpoint.read_text())["episode"]
+        except (OSError, ValueError):
+            continue
+        stored = len(metrics(client, created["id"]))
+        assert stored >= episode, (stored, episode)
+        samples += 1
+    assert samples > 0

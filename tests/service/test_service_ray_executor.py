@@ -116,3 +116,22 @@ def test_ray_runs_a_tiny_training_job(supervisor: Supervisor) -> None:
         ]
     assert episodes == [1, 2, 3]
     assert (supervisor.store.root / "jobs" / str(job_id) / "checkpoints" / "best.pt").is_file()
+
+
+def test_ray_records_are_committed_before_the_job_checkpoints_them(supervisor: Supervisor) -> None:
+    """Sampled invariant: whenever the checkpoint says episode k, the database already holds row k."""
+    import json
+
+    job_id = _submit(supervisor, "probe", {"episodes": 30, "interval_s": 0.02})
+    checkpoint = supervisor.store.root / "jobs" / str(job_id) / "checkpoints" / "latest.json"
+    samples = 0
+    while job_store.get_job(supervisor.database, job_id=job_id).status in ("queued", "running"):
+        try:
+            episode = json.loads(checkpoint.read_text())["episode"]
+        except (OSError, ValueError):
+            continue
+        with supervisor.database.read() as session:
+            stored = session.query(JobMetric).filter_by(job_id=job_id).count()
+        assert stored >= episode, (stored, episode)
+        samples += 1
+    assert samples > 0 and _finished(supervisor, job_id).status == "succeeded"

@@ -41,7 +41,8 @@ class JobKind:
     name: str
     spec_model: type[BaseModel]
     run: Callable[[JobContext], dict[str, Any]]
-    resumable: bool
+    resume_file: str | None
+    """The checkpoint (relative to the run directory) an interrupted job resumes from; None: never."""
     prepare: Callable[[BaseModel, PolicyRegistry], Submission]
     after_success: Callable[
         [PolicyRegistry, int, BaseModel, dict[str, Any], Path, dict[str, Any]], dict[str, Any]

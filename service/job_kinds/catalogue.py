@@ -19,11 +19,13 @@ from service.job_kinds.train import prepare_train, run_train
 from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec, ProbeSpec, TrainSpec
 
 JOB_KINDS: dict[str, JobKind] = {
-    "train": JobKind("train", TrainSpec, run_train, True, prepare_train, after_nothing),
-    "align": JobKind("align", AlignSpec, run_align, False, prepare_align, register_aligned),
-    "eval": JobKind("eval", EvalSpec, run_eval, False, resolve_policy_input, after_nothing),
-    "export": JobKind("export", ExportSpec, run_export, False, resolve_policy_input, attach_onnx),
-    "probe": JobKind("probe", ProbeSpec, run_probe, True, prepare_nothing, after_nothing),
+    "train": JobKind("train", TrainSpec, run_train, "checkpoints/latest.pt", prepare_train, after_nothing),
+    "align": JobKind("align", AlignSpec, run_align, None, prepare_align, register_aligned),
+    "eval": JobKind("eval", EvalSpec, run_eval, None, resolve_policy_input, after_nothing),
+    "export": JobKind("export", ExportSpec, run_export, None, resolve_policy_input, attach_onnx),
+    "probe": JobKind(
+        "probe", ProbeSpec, run_probe, "checkpoints/latest.json", prepare_nothing, after_nothing
+    ),
 }
 
 
@@ -35,5 +37,6 @@ def job_kind(name: str) -> JobKind:
 
 
 def can_resume(kind: JobKind, run_dir: Path) -> bool:
-    """An interrupted job resumes when its kind supports it and a checkpoint was written."""
-    return kind.resumable and (run_dir / "checkpoints").is_dir() and any((run_dir / "checkpoints").iterdir())
+    """An interrupted job resumes when its kind's resume checkpoint was written (a train job that
+    only wrote `best.pt` or `metrics.csv` starts over: the trainer resumes from `latest.pt` only)."""
+    return kind.resume_file is not None and (run_dir / kind.resume_file).is_file()

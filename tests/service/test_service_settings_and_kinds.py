@@ -66,3 +66,16 @@ def test_call_with_options_passes_only_declared_options() -> None:
         "trials": 3,
         "domain": "sim",
     }
+
+
+def test_only_a_resume_checkpoint_makes_a_job_resumable(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from service.job_kinds.catalogue import can_resume, job_kind
+
+    (tmp_path / "checkpoints").mkdir()
+    (tmp_path / "checkpoints" / "best.pt").write_bytes(b"x")
+    (tmp_path / "metrics.csv").write_text("episode\n1\n")
+    assert not can_resume(job_kind("train"), tmp_path)  # best.pt alone: the trainer cannot resume
+    (tmp_path / "checkpoints" / "latest.pt").write_bytes(b"x")
+    assert can_resume(job_kind("train"), tmp_path)
+    assert not can_resume(job_kind("eval"), tmp_path)
+    assert not can_resume(job_kind("probe"), tmp_path)

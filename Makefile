@@ -13,13 +13,16 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q --upgrade pip
 	# The CPU build of PyTorch, pinned: a loose requirement would pull GBs of CUDA packages.
 	$(BIN)/python -m pip install -q torch==2.13.0
-	$(BIN)/python -m pip install -q -e '.[dev]'
+	# dev: pytest, ruff, schemathesis; ray: the distributed executor, whose test starts a local Ray.
+	$(BIN)/python -m pip install -q -e '.[dev,ray]'
 	@touch $(STAMP)
 
 setup: $(STAMP)
 
+# The main job: I2A (Algorithm 3) on sparse-reward grasping, default profile, a laptop-sized budget.
+# It prints where the policy, the metrics and the learning-curve picture are.
 demo: $(STAMP)
-	$(BIN)/dualsys demo
+	$(BIN)/dualsys train --algo i2a --reward sparse --episodes 1500
 
 test: $(STAMP)
 	$(BIN)/ruff check .

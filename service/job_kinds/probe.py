@@ -12,10 +12,15 @@ import math
 import os
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from service.job_kinds.base import JobContext
+from pydantic import BaseModel
+
+from service.job_kinds.base import JobContext, Submission
 from service.schemas.specs import ProbeSpec
+
+if TYPE_CHECKING:
+    from registry import PolicyRegistry
 
 CHECKPOINT = Path("checkpoints") / "latest.json"
 
@@ -29,6 +34,12 @@ def _write_atomic(path: Path, text: str) -> None:
     temporary = path.with_name(f".{path.name}.tmp")
     temporary.write_text(text)
     os.replace(temporary, path)
+
+
+def prepare_probe(spec: BaseModel, registry: PolicyRegistry) -> Submission:
+    """A probe knows its length up front (progress bars show N/total)."""
+    assert isinstance(spec, ProbeSpec)
+    return Submission(progress_total=spec.episodes)
 
 
 def run_probe(context: JobContext) -> dict[str, Any]:

@@ -37,7 +37,7 @@ def test_jobs_submit_watch_show_list_cancel(service: LiveService) -> None:
     assert code == 0 and out.strip().endswith(f"job {job_id} succeeded"), out
     code, out = _run(["jobs", "show", job_id, "--json"], env)
     shown = json.loads(out)
-    assert code == 0 and shown["status"] == "succeeded" and shown["progress"] == {"episode": 3, "total": None}
+    assert code == 0 and shown["status"] == "succeeded" and shown["progress"] == {"episode": 3, "total": 3}
     code, out = _run(["jobs", "list", "--json", "--status", "succeeded"], env)
     assert code == 0 and json.loads(out)["count"] >= 1
     code, out = _run(["jobs", "cancel", job_id], env)

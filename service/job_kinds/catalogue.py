@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from service.job_kinds.base import JobKind, after_nothing, prepare_nothing
+from service.job_kinds.base import JobKind, after_nothing
 from service.job_kinds.deployment import (
     attach_onnx,
     prepare_align,
@@ -14,7 +14,7 @@ from service.job_kinds.deployment import (
     run_export,
 )
 from service.job_kinds.policy_input import resolve_policy_input
-from service.job_kinds.probe import run_probe
+from service.job_kinds.probe import prepare_probe, run_probe
 from service.job_kinds.train import prepare_train, run_train
 from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec, ProbeSpec, TrainSpec
 
@@ -23,9 +23,7 @@ JOB_KINDS: dict[str, JobKind] = {
     "align": JobKind("align", AlignSpec, run_align, None, prepare_align, register_aligned),
     "eval": JobKind("eval", EvalSpec, run_eval, None, resolve_policy_input, after_nothing),
     "export": JobKind("export", ExportSpec, run_export, None, resolve_policy_input, attach_onnx),
-    "probe": JobKind(
-        "probe", ProbeSpec, run_probe, "checkpoints/latest.json", prepare_nothing, after_nothing
-    ),
+    "probe": JobKind("probe", ProbeSpec, run_probe, "checkpoints/latest.json", prepare_probe, after_nothing),
 }
 
 

@@ -49,10 +49,6 @@ class JobKind:
     ]
 
 
-def prepare_nothing(spec: BaseModel, registry: PolicyRegistry) -> Submission:
-    return Submission()
-
-
 def after_nothing(
     registry: PolicyRegistry,
     job_id: int,

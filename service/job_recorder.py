@@ -79,12 +79,6 @@ class JobRecorder:
             cancel = bool(session.scalar(select(Job.cancel_requested).where(Job.id == self.job_id)))
             return HeartbeatReply(still_owner=result.rowcount == 1, cancel_requested=cancel)
 
-    def set_pid(self, pid: int) -> None:
-        with self.database.write() as session:
-            session.execute(
-                update(Job).where(Job.id == self.job_id, Job.owner == self.owner).values(worker_pid=pid)
-            )
-
     def record_metric(self, record: dict[str, Any]) -> None:
         """Store one episode record (upsert) and refresh checkpoint records that changed."""
         data = jsonable(dict(record))
@@ -162,7 +156,3 @@ class JobRecorder:
             job.worker_pid = None
             self._record_files(session, changed)
             return True
-
-    def cancel_requested(self) -> bool:
-        with self.database.read() as session:
-            return bool(session.scalar(select(Job.cancel_requested).where(Job.id == self.job_id)))

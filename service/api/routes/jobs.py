@@ -13,7 +13,6 @@ from service.api.deps import MutationAuth, StateDep
 from service.api.events import job_events, parse_last_event_id
 from service.api.presenters import artifact_public, job_public, json_response, metric_public
 from service.job_kinds import job_kind
-from service.models import FINISHED_STATUSES
 from service.schemas.errors import ErrorPublic
 from service.schemas.jobs import (
     ArtifactsPublic,
@@ -169,7 +168,3 @@ def download_job_artifact(job_id: JobId, name: str, state: StateDep) -> FileResp
     if any(part.startswith(".") for part in path.relative_to(run_dir).parts) or not path.is_file():
         raise HTTPException(status_code=404, detail=f"job {job_id} has no artifact {name!r}")
     return FileResponse(path, filename=path.name, media_type="application/octet-stream")
-
-
-def job_finished(status_text: str) -> bool:
-    return status_text in FINISHED_STATUSES

@@ -4,6 +4,8 @@ A run directory holds `config.yaml` (the resolved config), `summary.json` (the m
 `metrics.csv`, `checkpoints/latest.pt` and `checkpoints/best.pt`, and maybe an exported `*.onnx`.
 Decision: a directory is registrable when it holds at least one checkpoint (`*.pt`/`*.pth`) or an
 ONNX file; config and summary are recorded when present (an aligned or imported policy may lack them).
+Resume-only state is not copied into the registry: `checkpoints/replay.pt` (the replay buffer,
+hundreds of MB for a full run) and the job service's `worker.log`.
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ import yaml
 
 from registry.artifact_store import ArtifactStore, StoredFile
 from registry.errors import InvalidRunDirectory
+
+NOT_REGISTERED = frozenset({"checkpoints/replay.pt", "worker.log"})
 
 
 @dataclass(frozen=True)
@@ -47,7 +51,7 @@ def read_run_directory(path: Path) -> RunDirectoryContents:
         raise InvalidRunDirectory(f"run directory {folder} does not exist")
     if not folder.is_dir():
         raise InvalidRunDirectory(f"{folder} is not a directory")
-    files = ArtifactStore.list_files(folder)
+    files = [f for f in ArtifactStore.list_files(folder) if f.name not in NOT_REGISTERED]
     if not any(f.kind in ("checkpoint", "onnx") for f in files):
         raise InvalidRunDirectory(f"run directory {folder} holds no checkpoint (*.pt) and no *.onnx file")
     config: dict[str, Any] = {}

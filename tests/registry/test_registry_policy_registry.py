@@ -42,6 +42,17 @@ def test_versions_count_from_one_and_copy_files(policy_registry: PolicyRegistry,
     assert policy_registry.resolve("grasp@1").checkpoint.is_file()
 
 
+def test_replay_buffer_and_worker_log_are_not_registered(
+    policy_registry: PolicyRegistry, tmp_path: Path
+) -> None:
+    run = make_run_dir(tmp_path / "run")
+    (run / "checkpoints" / "replay.pt").write_bytes(b"replay")
+    (run / "worker.log").write_text("log")
+    names = {a.name for a in policy_registry.register_run("grasp", run).artifacts}
+    assert "checkpoints/replay.pt" not in names and "worker.log" not in names
+    assert {"checkpoints/best.pt", "checkpoints/latest.pt", "config.yaml"} <= names
+
+
 def test_resolve_by_version_alias_and_latest(policy_registry: PolicyRegistry, tmp_path: Path) -> None:
     for seed in range(3):
         policy_registry.register_run("grasp", make_run_dir(tmp_path / f"r{seed}", seed=seed))

@@ -21,6 +21,18 @@ from core.nets import Actor, Encoder, PolicyNetwork
 from core.run_dir import RunDirectory, load_checkpoint
 
 
+def observation_batch(obs: np.ndarray, obs_shape: tuple[int, ...]) -> np.ndarray:
+    """Check and batch policy input: uint8 ``[N, H, W, 3]`` (or one ``[H, W, 3]`` → ``[1, H, W, 3]``)."""
+    batch = np.asarray(obs)
+    if batch.dtype != np.uint8:
+        raise ValueError(f"observations must be uint8 images, got {batch.dtype}")
+    if batch.ndim == 3:
+        batch = batch[None]
+    if batch.shape[1:] != tuple(obs_shape):
+        raise ValueError(f"observations must have shape [N, {', '.join(map(str, obs_shape))}], "
+                         f"got {list(batch.shape)}")
+    return np.ascontiguousarray(batch)
+
 class PolicyLoadError(ValueError):
     """The path holds no loadable dualsys policy."""
 
@@ -53,16 +65,9 @@ class Policy:
     @torch.no_grad()
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Greedy actions for uint8 observations ``[N, H, W, 3]`` (or one ``[H, W, 3]`` → ``[1, A]``)."""
-        batch = np.asarray(obs)
-        if batch.dtype != np.uint8:
-            raise ValueError(f"observations must be uint8 images, got {batch.dtype}")
-        if batch.ndim == 3:
-            batch = batch[None]
-        if batch.shape[1:] != self.obs_shape:
-            raise ValueError(f"observations must have shape [N, {', '.join(map(str, self.obs_shape))}], "
-                             f"got {list(batch.shape)}")
+        batch = observation_batch(obs, self.obs_shape)
         self.network.eval()
-        return self.network(torch.from_numpy(np.ascontiguousarray(batch))).numpy().astype(np.float32)
+        return self.network(torch.from_numpy(batch)).numpy().astype(np.float32)
 
     @torch.no_grad()
     def encode(self, obs: np.ndarray) -> np.ndarray:

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from core.policy import observation_batch
+
 
 class OnnxPolicyError(ValueError):
     """The file is not a loadable ONNX policy."""
@@ -43,12 +45,5 @@ class OnnxPolicy:
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Actions for uint8 observations ``[N, H, W, 3]`` (or one ``[H, W, 3]`` → ``[1, A]``)."""
-        batch = np.asarray(obs)
-        if batch.dtype != np.uint8:
-            raise ValueError(f"observations must be uint8 images, got {batch.dtype}")
-        if batch.ndim == 3:
-            batch = batch[None]
-        if batch.shape[1:] != self.obs_shape:
-            raise ValueError(f"observations must have shape [N, {', '.join(map(str, self.obs_shape))}], "
-                             f"got {list(batch.shape)}")
-        return self.session.run([self.output_name], {self.input_name: np.ascontiguousarray(batch)})[0]
+        batch = observation_batch(obs, self.obs_shape)
+        return self.session.run([self.output_name], {self.input_name: batch})[0]

@@ -2,7 +2,8 @@
 
 Events: `status` (the job object, sent first and whenever its status, attempt or progress changes),
 `metric` (one per episode record, `id:` = the episode, so a reconnecting client sends
-`Last-Event-ID` and misses nothing), and `end` (the final job object; the stream then closes).
+`Last-Event-ID` and misses nothing), and `end` (the final job object, or `{"status": "deleted"}`
+if the job is deleted while watched; the stream then closes).
 A comment line keeps idle connections open. The stream polls the database (it is the queue).
 """
 
@@ -19,6 +20,7 @@ from starlette.concurrency import run_in_threadpool
 from registry.database import Database
 from service import job_store
 from service.api.presenters import job_public, metric_public
+from service.errors import JobNotFound
 from service.models import FINISHED_STATUSES
 
 POLL_S = 0.25
@@ -35,10 +37,14 @@ async def job_events(request: Request, database: Database, job_id: int, since: i
     last_state: tuple | None = None
     last_sent = time.monotonic()
     while True:
-        job = await run_in_threadpool(job_store.get_job, database, job_id=job_id)
-        rows = await run_in_threadpool(
-            job_store.list_metrics, database, job_id=job_id, since=since, limit=BATCH
-        )
+        try:
+            job = await run_in_threadpool(job_store.get_job, database, job_id=job_id)
+            rows = await run_in_threadpool(
+                job_store.list_metrics, database, job_id=job_id, since=since, limit=BATCH
+            )
+        except JobNotFound as error:  # deleted while being watched
+            yield sse("end", json.dumps({"id": job_id, "status": "deleted", "detail": str(error)}))
+            return
         state = (job.status, job.attempt, job.progress_episode, job.cancel_requested)
         if state != last_state:
             last_state = state

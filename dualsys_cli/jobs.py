@@ -221,11 +221,13 @@ def watch_job(job_id: int = typer.Argument(..., min=1), url: str = URL) -> None:
         task = progress.add_task("job", total=None, job=job_id, status="", ret="-")
         for event, data in client.events(job_id):
             if event in ("status", "end"):
+                final = data
+                if "progress" not in data:  # {"status": "deleted"}: the job went away
+                    continue
                 total = data["progress"]["total"]
                 progress.update(
                     task, total=total, completed=data["progress"]["episode"], status=data["status"]
                 )
-                final = data
             elif event == "metric":
                 value = data["data"].get("charts/episodic_return")
                 shown = f"{value:.3f}" if isinstance(value, int | float) else "-"

@@ -124,3 +124,22 @@ def test_cacla_sparse_runs(tmp_path):
     table = rows(tmp_path / "run")
     assert all(float(r["charts/episodic_return"]) in (-1.0, 0.0, 1.0) for r in table)
     assert torch.load(tmp_path / "run" / "checkpoints" / "best.pt", weights_only=True)["policy"]
+
+
+def test_policy_round_trip_gives_identical_actions(tmp_path):
+    from core.agent import EnvSpec
+    from core.algos import make_agent
+    from core.run_dir import CHECKPOINT_FORMAT, atomic_torch_save
+
+    config = tiny(1, "env.hand=learned")
+    agent = make_agent(config, EnvSpec((32, 64, 3), 2), np.random.default_rng(0))
+    obs = np.random.default_rng(1).integers(0, 256, (6, 32, 64, 3), dtype=np.uint8)
+    expected = np.stack([agent.act(o, explore=False)[0] for o in obs])
+    path = tmp_path / "p.pt"
+    atomic_torch_save({"format": CHECKPOINT_FORMAT, "config": config.to_dict(), "obs_shape": [32, 64, 3],
+                       "policy": agent.policy_state()}, path)
+    policy = load_policy(path)
+    assert policy.action_dim == 2
+    np.testing.assert_allclose(policy.act(obs), expected, rtol=0, atol=1e-6)
+    with pytest.raises(ValueError):
+        policy.act(obs.astype(np.float32))

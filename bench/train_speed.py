@@ -43,8 +43,12 @@ def known_methods() -> tuple[str, ...]:
 
 
 def _config(algo: str, batch: int | None, buffer: int) -> Config:
-    overrides = [f"run.algo={algo}", f"agent.buffer_size={buffer}", "agent.update_schedule=per_step",
-                 "agent.updates_per_step=1"]
+    overrides = [
+        f"run.algo={algo}",
+        f"agent.buffer_size={buffer}",
+        "agent.update_schedule=per_step",
+        "agent.updates_per_step=1",
+    ]
     if batch is not None:
         overrides.append(f"agent.batch_size={batch}")
     return load_config("default", overrides)
@@ -110,13 +114,25 @@ def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> 
 
     env = make_env(config)
     model = DDPG(
-        "CnnPolicy", env, learning_rate=config.agent.critic_lr, buffer_size=buffer,
-        learning_starts=warmup, batch_size=config.agent.batch_size, tau=config.agent.tau,
-        gamma=config.agent.gamma, train_freq=1, gradient_steps=1,
+        "CnnPolicy",
+        env,
+        learning_rate=config.agent.critic_lr,
+        buffer_size=buffer,
+        learning_starts=warmup,
+        batch_size=config.agent.batch_size,
+        tau=config.agent.tau,
+        gamma=config.agent.gamma,
+        train_freq=1,
+        gradient_steps=1,
         action_noise=NormalActionNoise(np.zeros(1), np.full(1, config.agent.noise_std)),
-        policy_kwargs={"features_extractor_class": SameEncoder, "net_arch": {"pi": [20], "qf": [20]},
-                       "normalize_images": True},
-        seed=seed, device="cpu", verbose=0,
+        policy_kwargs={
+            "features_extractor_class": SameEncoder,
+            "net_arch": {"pi": [20], "qf": [20]},
+            "normalize_images": True,
+        },
+        seed=seed,
+        device="cpu",
+        verbose=0,
     )
     timer = Timer()
     model.learn(total_timesteps=warmup + steps, callback=timer)
@@ -125,9 +141,16 @@ def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> 
     return 1000.0 * elapsed / steps, config.agent.batch_size
 
 
-def measure(algos: tuple[str, ...] = ("ddpg", "sb3-ddpg"), batch: int | None = None, steps: int = 300,
-            warmup: int = 300, rounds: int = 2, buffer: int = 100_000, seed: int = 0,
-            threads: int | None = None) -> dict[str, Any]:
+def measure(
+    algos: tuple[str, ...] = ("ddpg", "sb3-ddpg"),
+    batch: int | None = None,
+    steps: int = 300,
+    warmup: int = 300,
+    rounds: int = 2,
+    buffer: int = 100_000,
+    seed: int = 0,
+    threads: int | None = None,
+) -> dict[str, Any]:
     """ms per training step for each method (median over ``rounds`` alternating rounds).
 
     ``threads``: torch threads for both (default: the default profile's ``run.num_threads``).
@@ -150,8 +173,11 @@ def measure(algos: tuple[str, ...] = ("ddpg", "sb3-ddpg"), batch: int | None = N
             samples[name].append(ms)
             batches[name] = used_batch
     result: dict[str, Any] = {
-        name: {"ms_per_step": round(statistics.median(values), 2), "batch": batches[name],
-               "rounds_ms": [round(v, 2) for v in values]}
+        name: {
+            "ms_per_step": round(statistics.median(values), 2),
+            "batch": batches[name],
+            "rounds_ms": [round(v, 2) for v in values],
+        }
         for name, values in samples.items()
     }
     result["threads"] = threads

@@ -46,8 +46,9 @@ class DDPGActorUpdate:
     def __init__(self, passes: int) -> None:
         self.passes = passes
 
-    def __call__(self, learner: ActorCritic, latent: torch.Tensor, action: torch.Tensor,
-                 target: torch.Tensor) -> ActorUpdateResult:
+    def __call__(
+        self, learner: ActorCritic, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor
+    ) -> ActorUpdateResult:
         loss = torch.zeros(())
         with _frozen(learner.critic):
             for _ in range(self.passes):
@@ -71,8 +72,9 @@ class CACLAActorUpdate:
     def __init__(self, passes: int) -> None:
         self.passes = passes
 
-    def __call__(self, learner: ActorCritic, latent: torch.Tensor, action: torch.Tensor,
-                 target: torch.Tensor) -> ActorUpdateResult:
+    def __call__(
+        self, learner: ActorCritic, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor
+    ) -> ActorUpdateResult:
         positive = self.positive_mask(learner, latent, target)
         fraction = float(positive.float().mean())
         if not bool(positive.any()):
@@ -172,8 +174,9 @@ class ActorCritic(nn.Module):
 
     # -- learning --------------------------------------------------------------------------------
     @torch.no_grad()
-    def td_target(self, reward: torch.Tensor, next_latent_target: torch.Tensor,
-                  terminated: torch.Tensor) -> torch.Tensor:
+    def td_target(
+        self, reward: torch.Tensor, next_latent_target: torch.Tensor, terminated: torch.Tensor
+    ) -> torch.Tensor:
         """Eq. 1 target y = r + γ (1 − terminated) Q′(φ′, μ′(φ′)), φ′ from the target encoder."""
         next_q = self.target_critic(next_latent_target, self.target_actor(next_latent_target))
         return reward + self.agent_config.gamma * (1.0 - terminated) * next_q
@@ -183,8 +186,9 @@ class ActorCritic(nn.Module):
         cfg = self.agent_config
         obs = to_float_chw(batch.obs)
         with torch.no_grad():
-            target = self.td_target(batch.reward, self.target_encoder(to_float_chw(batch.next_obs)),
-                                    batch.terminated)
+            target = self.td_target(
+                batch.reward, self.target_encoder(to_float_chw(batch.next_obs)), batch.terminated
+            )
         rec_loss = q_loss = torch.zeros(())
         latent = torch.zeros(())
         for _ in range(cfg.critic_passes):
@@ -203,8 +207,11 @@ class ActorCritic(nn.Module):
             "losses/rec": float(rec_loss.detach()),
             "losses/actor": actor.loss,
             "losses/td_target_mean": float(target.mean()),
-            **({} if actor.positive_fraction != actor.positive_fraction
-               else {"losses/cacla_positive_fraction": actor.positive_fraction}),
+            **(
+                {}
+                if actor.positive_fraction != actor.positive_fraction
+                else {"losses/cacla_positive_fraction": actor.positive_fraction}
+            ),
         }
 
     def update_latents(self, batch: LatentBatch) -> dict[str, float]:

@@ -98,8 +98,9 @@ class GaussianNoise:
         fraction = min(1.0, step / self.anneal_steps)
         return self.std + fraction * (self.final_std - self.std)
 
-    def perturb(self, action: np.ndarray, step: int, rng: np.random.Generator,
-                low: float, high: float) -> np.ndarray:
+    def perturb(
+        self, action: np.ndarray, step: int, rng: np.random.Generator, low: float, high: float
+    ) -> np.ndarray:
         noisy = action + rng.normal(0.0, self.std_at(step), size=action.shape)
         return np.clip(noisy, low, high).astype(np.float32)
 
@@ -125,12 +126,14 @@ class ModelFreeAgent:
         self.spec = spec
         self.rng = rng
         self.device = torch.device(config.run.device)
-        self.learner = ActorCritic(config.net, config.agent, spec.action_dim,
-                                   action_scale=spec.action_high, obs_shape=spec.obs_shape).to(self.device)
+        self.learner = ActorCritic(
+            config.net, config.agent, spec.action_dim, action_scale=spec.action_high, obs_shape=spec.obs_shape
+        ).to(self.device)
         self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim)
         agent_cfg = config.agent
-        self.noise = GaussianNoise(agent_cfg.noise_std, agent_cfg.noise_final_std,
-                                   agent_cfg.noise_anneal_steps)
+        self.noise = GaussianNoise(
+            agent_cfg.noise_std, agent_cfg.noise_final_std, agent_cfg.noise_anneal_steps
+        )
         self.steps = 0
         """Training environment steps observed (drives noise annealing and learning_starts)."""
         self.updates = 0
@@ -158,8 +161,13 @@ class ModelFreeAgent:
         return transition.reward
 
     def observe(self, transition: Transition) -> None:
-        self.replay.add(transition.action, self.stored_reward(transition), transition.next_obs,
-                        transition.terminated, reward_ext=transition.reward)
+        self.replay.add(
+            transition.action,
+            self.stored_reward(transition),
+            transition.next_obs,
+            transition.terminated,
+            reward_ext=transition.reward,
+        )
         self.steps += 1
 
     # -- learning --------------------------------------------------------------------------------
@@ -194,8 +202,10 @@ class ModelFreeAgent:
         return self._learn(self.config.agent.updates_per_episode)
 
     def episode_diagnostics(self) -> dict[str, float]:
-        return {"charts/noise_std": self.noise.std_at(self.steps),
-                "charts/replay_size": float(len(self.replay))}
+        return {
+            "charts/noise_std": self.noise.std_at(self.steps),
+            "charts/replay_size": float(len(self.replay)),
+        }
 
     # -- persistence -----------------------------------------------------------------------------
     def state_dict(self) -> dict[str, Any]:

@@ -69,8 +69,9 @@ class Decoder(nn.Module):
         widths = [*reversed(config.conv_channels[:-1]), out_channels]
         for index, next_channels in enumerate(widths):
             if config.arch == "strided":
-                layers.append(nn.ConvTranspose2d(channels, next_channels, 3, stride=2, padding=1,
-                                                 output_padding=1))
+                layers.append(
+                    nn.ConvTranspose2d(channels, next_channels, 3, stride=2, padding=1, output_padding=1)
+                )
             else:
                 layers.append(nn.Conv2d(channels, next_channels, 3, padding=1))
             if index < len(widths) - 1:
@@ -89,7 +90,8 @@ class Critic(nn.Module):
     def __init__(self, config: NetConfig, action_dim: int) -> None:
         super().__init__()
         self.net = nn.Sequential(
-            nn.Linear(config.latent_dim + action_dim, config.critic_hidden), nn.ReLU(),
+            nn.Linear(config.latent_dim + action_dim, config.critic_hidden),
+            nn.ReLU(),
             nn.Linear(config.critic_hidden, 1),
         )
 
@@ -107,8 +109,10 @@ class Actor(nn.Module):
         super().__init__()
         activation: nn.Module = nn.Tanh() if config.actor_activation == "tanh" else nn.ReLU()
         self.net = nn.Sequential(
-            nn.Linear(config.latent_dim, config.actor_hidden), activation,
-            nn.Linear(config.actor_hidden, action_dim), nn.Tanh(),
+            nn.Linear(config.latent_dim, config.actor_hidden),
+            activation,
+            nn.Linear(config.actor_hidden, action_dim),
+            nn.Tanh(),
         )
         scale = torch.as_tensor(action_scale, dtype=torch.float32).expand(action_dim).clone()
         self.register_buffer("action_scale", scale)

@@ -29,9 +29,11 @@ def observation_batch(obs: np.ndarray, obs_shape: tuple[int, ...]) -> np.ndarray
     if batch.ndim == 3:
         batch = batch[None]
     if batch.shape[1:] != tuple(obs_shape):
-        raise ValueError(f"observations must have shape [N, {', '.join(map(str, obs_shape))}], "
-                         f"got {list(batch.shape)}")
+        raise ValueError(
+            f"observations must have shape [N, {', '.join(map(str, obs_shape))}], got {list(batch.shape)}"
+        )
     return np.ascontiguousarray(batch)
+
 
 class PolicyLoadError(ValueError):
     """The path holds no loadable dualsys policy."""

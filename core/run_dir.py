@@ -152,12 +152,19 @@ class RunDirectory:
         atomic_write_text(self.command_path, previous + command.rstrip("\n") + "\n")
 
     def write_summary(self, summary: Mapping[str, Any]) -> None:
-        clean = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                 for k, v in summary.items()}
+        clean = {
+            k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in summary.items()
+        }
         atomic_write_text(self.summary_path, json.dumps(clean, indent=2) + "\n")
 
-    def write_learning_curve(self, returns: list[float], evals: list[tuple[int, float]], window: int,
-                             title: str, diagnostics: Mapping[str, list[float]] | None = None) -> None:
+    def write_learning_curve(
+        self,
+        returns: list[float],
+        evals: list[tuple[int, float]],
+        window: int,
+        title: str,
+        diagnostics: Mapping[str, list[float]] | None = None,
+    ) -> None:
         """PNG of episodic reward (raw, and smoothed with ``window``) and greedy eval success rate; with
         dual-system ``diagnostics`` (the ``dual/…`` columns) a second panel (core.dual_diagnostics_panel)."""
         import matplotlib
@@ -176,16 +183,27 @@ class RunDirectory:
         episodes = list(range(1, len(returns) + 1))
         if returns:
             axis.plot(episodes, returns, color="tab:blue", alpha=0.2, linewidth=0.6, label="episodic reward")
-            axis.plot(episodes, smooth(returns, window), color="tab:blue", linewidth=1.8,
-                      label=f"smoothed ({window} episodes)")
+            axis.plot(
+                episodes,
+                smooth(returns, window),
+                color="tab:blue",
+                linewidth=1.8,
+                label=f"smoothed ({window} episodes)",
+            )
         axis.set_xlabel("episode")
         axis.set_ylabel("episodic reward")
         axis.set_title(title)
         axis.grid(alpha=0.3)
         if evals:
             success_axis = axis.twinx()
-            success_axis.plot([e for e, _ in evals], [s for _, s in evals], "o-", color="tab:green",
-                              markersize=3, label="greedy success rate")
+            success_axis.plot(
+                [e for e, _ in evals],
+                [s for _, s in evals],
+                "o-",
+                color="tab:green",
+                markersize=3,
+                label="greedy success rate",
+            )
             success_axis.set_ylim(-0.02, 1.02)
             success_axis.set_ylabel("greedy success rate")
             success_axis.legend(loc="lower right", fontsize=8)
@@ -237,4 +255,3 @@ class MetricsCSV:
         writer.writeheader()
         writer.writerows(self.rows)
         atomic_write_text(self.path, text.getvalue())
-

@@ -61,9 +61,19 @@ EVAL_SEED = 1_000_000
 """Evaluation episode k resets its env with seed EVAL_SEED + k (same positions for all runs)."""
 
 RECORD_KEYS: tuple[str, ...] = (
-    "episode", "global_step", "charts/episodic_return", "charts/success", "charts/toppled",
-    "charts/length", "losses/critic", "losses/rec", "losses/actor", "time/wall_s", "charts/sps",
-    "eval/success_rate", "eval/return",
+    "episode",
+    "global_step",
+    "charts/episodic_return",
+    "charts/success",
+    "charts/toppled",
+    "charts/length",
+    "losses/critic",
+    "losses/rec",
+    "losses/actor",
+    "time/wall_s",
+    "charts/sps",
+    "eval/success_rate",
+    "eval/return",
 )
 """Keys present in every episode record (and metrics.csv column order); agents add their own."""
 
@@ -99,8 +109,14 @@ class _StopFlag:
 def env_kwargs(config: Config) -> dict[str, Any]:
     """The ``NicoGraspEnv`` keyword arguments of ``config.env``."""
     env = config.env
-    return {"reward_mode": env.reward_mode, "hand": env.hand, "dense_shaping": env.dense_shaping,
-            "fixed_positions": env.fixed_positions, "max_steps": env.max_steps, "domain": env.domain}
+    return {
+        "reward_mode": env.reward_mode,
+        "hand": env.hand,
+        "dense_shaping": env.dense_shaping,
+        "fixed_positions": env.fixed_positions,
+        "max_steps": env.max_steps,
+        "domain": env.domain,
+    }
 
 
 def make_env(config: Config, *, evaluation: bool = False) -> Any:
@@ -115,8 +131,12 @@ def make_env(config: Config, *, evaluation: bool = False) -> Any:
 
 def env_spec(env: Any) -> EnvSpec:
     space = env.action_space
-    return EnvSpec(obs_shape=tuple(env.observation_space.shape), action_dim=int(space.shape[0]),
-                   action_low=float(space.low.min()), action_high=float(space.high.max()))
+    return EnvSpec(
+        obs_shape=tuple(env.observation_space.shape),
+        action_dim=int(space.shape[0]),
+        action_low=float(space.low.min()),
+        action_high=float(space.high.max()),
+    )
 
 
 def evaluate(agent: Agent, env: Any, episodes: int, seed: int = EVAL_SEED) -> dict[str, float]:
@@ -136,14 +156,19 @@ def evaluate(agent: Agent, env: Any, episodes: int, seed: int = EVAL_SEED) -> di
         successes.append(success)
         returns.append(total)
         lengths.append(length)
-    return {"eval/success_rate": float(np.mean(successes)), "eval/return": float(np.mean(returns)),
-            "eval/length": float(np.mean(lengths))}
+    return {
+        "eval/success_rate": float(np.mean(successes)),
+        "eval/return": float(np.mean(returns)),
+        "eval/length": float(np.mean(lengths)),
+    }
 
 
 def _env_rng_state(env: Any) -> dict[str, Any]:
     unwrapped = env.unwrapped
-    return {"np_random": generator_state(unwrapped.np_random),
-            "episode_index": int(getattr(unwrapped, "_episode_index", 0))}
+    return {
+        "np_random": generator_state(unwrapped.np_random),
+        "episode_index": int(getattr(unwrapped, "_episode_index", 0)),
+    }
 
 
 def _restore_env_rng(env: Any, state: dict[str, Any]) -> None:
@@ -168,8 +193,15 @@ def _mean_dicts(items: list[dict[str, float]]) -> dict[str, float]:
 class _Trainer:
     """State of one ``train`` call; see the module docstring."""
 
-    def __init__(self, config: Config, run_dir: Path, resume: bool, on_episode: EpisodeCallback | None,
-                 should_stop: Callable[[], bool] | None, command: str | None) -> None:
+    def __init__(
+        self,
+        config: Config,
+        run_dir: Path,
+        resume: bool,
+        on_episode: EpisodeCallback | None,
+        should_stop: Callable[[], bool] | None,
+        command: str | None,
+    ) -> None:
         self.config = resolve_algo(config)
         check_config(self.config)
         self.dir = RunDirectory(run_dir)
@@ -194,8 +226,10 @@ class _Trainer:
             saved = Config.from_dict(checkpoint["config"])
             for section in ("net", "env", "agent", "dual"):
                 if getattr(saved, section) != getattr(self.config, section):
-                    raise ConfigError(f"cannot resume {self.dir.root}: config section {section!r} differs "
-                                      "from the saved run")
+                    raise ConfigError(
+                        f"cannot resume {self.dir.root}: config section {section!r} differs "
+                        "from the saved run"
+                    )
             if saved.run.algo != self.config.run.algo:
                 raise ConfigError(f"cannot resume {self.dir.root}: it was trained with {saved.run.algo!r}")
         elif self.dir.holds_run():
@@ -223,34 +257,44 @@ class _Trainer:
 
     # -- checkpoints ----------------------------------------------------------------------------
     def _counters(self, wall_s: float) -> dict[str, Any]:
-        return {"episode": self.episode, "global_step": self.global_step, "wall_s": wall_s,
-                "best": list(self.best) if self.best else None}
+        return {
+            "episode": self.episode,
+            "global_step": self.global_step,
+            "wall_s": wall_s,
+            "best": list(self.best) if self.best else None,
+        }
 
     def _save_latest(self, agent: Agent, env: Any, wall_s: float) -> None:
         atomic_torch_save(agent.replay_state_dict(), self.dir.replay_path)
-        atomic_torch_save({
-            "format": CHECKPOINT_FORMAT,
-            "config": self.config.to_dict(),
-            "obs_shape": list(self.spec.obs_shape),
-            "action_dim": self.spec.action_dim,
-            "counters": self._counters(wall_s),
-            "evals": [list(item) for item in self.evals],
-            "agent": agent.state_dict(),
-            "policy": agent.policy_state(),
-            "torch_rng": torch.get_rng_state(),
-            "env_rng": _env_rng_state(env),
-        }, self.dir.latest_path)
+        atomic_torch_save(
+            {
+                "format": CHECKPOINT_FORMAT,
+                "config": self.config.to_dict(),
+                "obs_shape": list(self.spec.obs_shape),
+                "action_dim": self.spec.action_dim,
+                "counters": self._counters(wall_s),
+                "evals": [list(item) for item in self.evals],
+                "agent": agent.state_dict(),
+                "policy": agent.policy_state(),
+                "torch_rng": torch.get_rng_state(),
+                "env_rng": _env_rng_state(env),
+            },
+            self.dir.latest_path,
+        )
 
     def _save_best(self, agent: Agent, wall_s: float, evaluation: dict[str, float]) -> None:
-        atomic_torch_save({
-            "format": CHECKPOINT_FORMAT,
-            "config": self.config.to_dict(),
-            "obs_shape": list(self.spec.obs_shape),
-            "action_dim": self.spec.action_dim,
-            "counters": self._counters(wall_s),
-            "eval": evaluation,
-            "policy": agent.policy_state(),
-        }, self.dir.best_path)
+        atomic_torch_save(
+            {
+                "format": CHECKPOINT_FORMAT,
+                "config": self.config.to_dict(),
+                "obs_shape": list(self.spec.obs_shape),
+                "action_dim": self.spec.action_dim,
+                "counters": self._counters(wall_s),
+                "eval": evaluation,
+                "policy": agent.policy_state(),
+            },
+            self.dir.best_path,
+        )
 
     # -- the loop --------------------------------------------------------------------------------
     def run(self) -> dict[str, Any]:
@@ -298,18 +342,28 @@ class _Trainer:
                     if cfg.run.checkpoint_every > 0 and self.episode % cfg.run.checkpoint_every == 0:
                         self._save_latest(agent, env, wall())
                 final_eval = {}
-                if not stopped and cfg.run.final_eval and (
-                        not self.evals or self.evals[-1][0] != self.episode):
+                if (
+                    not stopped
+                    and cfg.run.final_eval
+                    and (not self.evals or self.evals[-1][0] != self.episode)
+                ):
                     eval_env = eval_env or make_env(cfg, evaluation=True)
                     final_eval = self._evaluate(agent, eval_env, wall())
             self._save_latest(agent, env, wall())
-            summary = self._summary(wall(), (self.global_step - start_step) / max(
-                time.perf_counter() - start_time, 1e-9), stopped, final_eval)
+            summary = self._summary(
+                wall(),
+                (self.global_step - start_step) / max(time.perf_counter() - start_time, 1e-9),
+                stopped,
+                final_eval,
+            )
             self.dir.write_summary(summary)
             self.dir.write_learning_curve(
-                self.returns, self.evals, cfg.run.smoothing_window,
+                self.returns,
+                self.evals,
+                cfg.run.smoothing_window,
                 f"{cfg.run.algo} · {cfg.env.reward_mode} reward · seed {cfg.run.seed}",
-                diagnostics={k: self.csv.column(k) for k in self.csv.columns if k.startswith("dual/")})
+                diagnostics={k: self.csv.column(k) for k in self.csv.columns if k.startswith("dual/")},
+            )
             return summary
         finally:
             env.close()
@@ -318,9 +372,11 @@ class _Trainer:
 
     def _budget_spent(self, wall_s: float) -> bool:
         run = self.config.run
-        return ((run.episodes is not None and self.episode >= run.episodes)
-                or (run.steps is not None and self.global_step >= run.steps)
-                or (run.max_wall_s is not None and wall_s >= run.max_wall_s))
+        return (
+            (run.episodes is not None and self.episode >= run.episodes)
+            or (run.steps is not None and self.global_step >= run.steps)
+            or (run.max_wall_s is not None and wall_s >= run.max_wall_s)
+        )
 
     def _train_episode(self, agent: Agent, env: Any, reset_seed: int | None) -> dict[str, Any] | None:
         obs, _ = env.reset(seed=reset_seed)
@@ -353,11 +409,16 @@ class _Trainer:
         self.returns.append(episode_return)
         self.successes.append(float(success))
         record: dict[str, Any] = dict.fromkeys(RECORD_KEYS, math.nan)
-        record.update({
-            "episode": self.episode, "global_step": self.global_step,
-            "charts/episodic_return": episode_return, "charts/success": int(success),
-            "charts/toppled": int(toppled), "charts/length": length,
-        })
+        record.update(
+            {
+                "episode": self.episode,
+                "global_step": self.global_step,
+                "charts/episodic_return": episode_return,
+                "charts/success": int(success),
+                "charts/toppled": int(toppled),
+                "charts/length": length,
+            }
+        )
         record.update(_mean_dicts(losses))
         record.update(_mean_dicts(step_diagnostics))
         record.update(agent.episode_diagnostics())
@@ -373,8 +434,9 @@ class _Trainer:
             self._save_best(agent, wall_s, result)
         return result
 
-    def _summary(self, wall_s: float, sps: float, stopped: bool,
-                 final_eval: dict[str, float]) -> dict[str, Any]:
+    def _summary(
+        self, wall_s: float, sps: float, stopped: bool, final_eval: dict[str, float]
+    ) -> dict[str, Any]:
         last_eval = final_eval or self.last_eval
         recent = self.successes[-100:]
         return {

@@ -38,9 +38,20 @@ def default_run_dir(algo: str, reward: str, root: Path = DEFAULT_RUNS_DIR) -> Pa
     return candidate
 
 
-def build_config(*, profile: str, config_file: Path | None, overrides: list[str], resume: Path | None,
-                 algo: str | None, ac: str | None, reward: str | None, seed: int | None,
-                 episodes: int | None, steps: int | None, minutes: float | None) -> Any:
+def build_config(
+    *,
+    profile: str,
+    config_file: Path | None,
+    overrides: list[str],
+    resume: Path | None,
+    algo: str | None,
+    ac: str | None,
+    reward: str | None,
+    seed: int | None,
+    episodes: int | None,
+    steps: int | None,
+    minutes: float | None,
+) -> Any:
     """Resolve the run's Config from the options (see the module docstring)."""
     from core.config import Config, ConfigError, load_config, read_config_file, set_value
 
@@ -93,17 +104,24 @@ class _ProgressView:
         self.recent_success: deque[float] = deque(maxlen=100)
         self.recent_return: deque[float] = deque(maxlen=100)
         self.progress = Progress(
-            TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-            TextColumn("{task.fields[stats]}"), console=console, transient=False,
+            TextColumn("[bold]{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            TextColumn("{task.fields[stats]}"),
+            console=console,
+            transient=False,
         )
         self.task = self.progress.add_task(f"{run.algo} · {config.env.reward_mode}", total=total, stats="")
 
     def __call__(self, record: dict[str, Any]) -> None:
         self.recent_success.append(float(record["charts/success"]))
         self.recent_return.append(float(record["charts/episodic_return"]))
-        stats = (f"ep {record['episode']} · {record['charts/sps']:.0f} steps/s · "
-                 f"success(100) {sum(self.recent_success) / len(self.recent_success):.0%} · "
-                 f"reward(100) {sum(self.recent_return) / len(self.recent_return):+.2f}")
+        stats = (
+            f"ep {record['episode']} · {record['charts/sps']:.0f} steps/s · "
+            f"success(100) {sum(self.recent_success) / len(self.recent_success):.0%} · "
+            f"reward(100) {sum(self.recent_return) / len(self.recent_return):+.2f}"
+        )
         evaluated = record.get("eval/success_rate")
         if evaluated is not None and not math.isnan(evaluated):
             stats += f" · eval {evaluated:.0%}"
@@ -112,8 +130,21 @@ class _ProgressView:
 
 def _summary_table(summary: dict[str, Any]) -> Table:
     table = Table(title="training summary", show_header=False)
-    for key in ("run_dir", "algo", "reward", "seed", "episodes", "steps", "final_perf", "auc",
-                "success_rate", "best_success_rate", "train_success_rate_last100", "wall_s", "sps"):
+    for key in (
+        "run_dir",
+        "algo",
+        "reward",
+        "seed",
+        "episodes",
+        "steps",
+        "final_perf",
+        "auc",
+        "success_rate",
+        "best_success_rate",
+        "train_success_rate_last100",
+        "wall_s",
+        "sps",
+    ):
         value = summary.get(key)
         text = f"{value:.3f}" if isinstance(value, float) else str(value)
         table.add_row(key, text)
@@ -127,8 +158,9 @@ def train_command(
     episodes: int = typer.Option(None, "--episodes", min=1, help="Training episodes."),
     steps: int = typer.Option(None, "--steps", min=1, help="Training environment steps."),
     minutes: float = typer.Option(None, "--minutes", min=0.0, help="Wall-clock training budget."),
-    out: Path = typer.Option(None, "--out",
-                             help="Run directory (default: ./dualsys-runs/<algo>-<reward>-<time>)."),
+    out: Path = typer.Option(
+        None, "--out", help="Run directory (default: ./dualsys-runs/<algo>-<reward>-<time>)."
+    ),
     profile: str = typer.Option("default", "--profile", help="Config profile: default | paper."),
     overrides: list[str] = typer.Option(None, "--set", help="Override a config value: section.key=value."),
     config_file: Path = typer.Option(None, "--config", help="YAML/JSON file of config sections."),
@@ -140,16 +172,29 @@ def train_command(
     from core.trainer import train
 
     with user_errors():
-        config = build_config(profile=profile, config_file=config_file, overrides=list(overrides or []),
-                              resume=resume, algo=algo, ac=ac, reward=reward, seed=seed, episodes=episodes,
-                              steps=steps, minutes=minutes)
+        config = build_config(
+            profile=profile,
+            config_file=config_file,
+            overrides=list(overrides or []),
+            resume=resume,
+            algo=algo,
+            ac=ac,
+            reward=reward,
+            seed=seed,
+            episodes=episodes,
+            steps=steps,
+            minutes=minutes,
+        )
         from core.algos import resolve_algo
         from core.config import check_config
 
         config = resolve_algo(config)
         check_config(config)
-        run_dir = resume if resume is not None else (out or default_run_dir(config.run.algo,
-                                                                          config.env.reward_mode))
+        run_dir = (
+            resume
+            if resume is not None
+            else (out or default_run_dir(config.run.algo, config.env.reward_mode))
+        )
         from core.run_dir import RunDirectory, RunDirectoryError
 
         if resume is None and RunDirectory(run_dir).holds_run():
@@ -157,8 +202,13 @@ def train_command(
         console = Console(stderr=True)
         view = _ProgressView(console, config)
         with view.progress:
-            summary = train(config, run_dir, resume=resume is not None, on_episode=view,
-                            command=shlex.join(["dualsys", *sys.argv[1:]]))
+            summary = train(
+                config,
+                run_dir,
+                resume=resume is not None,
+                on_episode=view,
+                command=shlex.join(["dualsys", *sys.argv[1:]]),
+            )
     if as_json:
         keys = ("run_dir", "episodes", "steps", "final_perf", "auc", "success_rate", "wall_s")
         typer.echo(json.dumps({key: _json_value(summary[key]) for key in keys}))

@@ -131,8 +131,9 @@ def test_update_moves_targets_by_tau_only():
     ac = learner(extra=("agent.tau=0.1",))
     target_before = [p.clone() for p in ac.target_critic.parameters()]
     ac.update_pixels(batch())
-    for before, now, online in zip(target_before, ac.target_critic.parameters(), ac.critic.parameters(),
-                                   strict=True):
+    for before, now, online in zip(
+        target_before, ac.target_critic.parameters(), ac.critic.parameters(), strict=True
+    ):
         assert torch.allclose(now, before + 0.1 * (online - before), atol=1e-6)
 
 
@@ -142,8 +143,9 @@ def test_update_latents_trains_critic_head_not_encoder():
     critic_before = [p.clone() for p in ac.critic.parameters()]
     from core.replay import LatentBatch
 
-    latent_batch = LatentBatch(torch.rand(8, 8), torch.rand(8, 1), torch.rand(8), torch.rand(8, 8),
-                               torch.zeros(8))
+    latent_batch = LatentBatch(
+        torch.rand(8, 8), torch.rand(8, 1), torch.rand(8), torch.rand(8, 8), torch.zeros(8)
+    )
     losses = ac.update_latents(latent_batch)
     assert np.isfinite(losses["losses/latent_critic"])
     assert all(torch.equal(a, b) for a, b in zip(encoder_before, ac.encoder.parameters(), strict=True))

@@ -8,9 +8,22 @@ from typer.testing import CliRunner
 
 from dualsys_cli.main import app
 
-TINY = ["--set", "net.conv_channels=4,4", "--set", "net.latent_dim=8", "--set", "env.max_steps=6",
-        "--set", "agent.batch_size=8", "--set", "agent.learning_starts=6", "--set", "run.eval_episodes=2",
-        "--set", "agent.buffer_size=300"]
+TINY = [
+    "--set",
+    "net.conv_channels=4,4",
+    "--set",
+    "net.latent_dim=8",
+    "--set",
+    "env.max_steps=6",
+    "--set",
+    "agent.batch_size=8",
+    "--set",
+    "agent.learning_starts=6",
+    "--set",
+    "run.eval_episodes=2",
+    "--set",
+    "agent.buffer_size=300",
+]
 
 
 def invoke(*args: str):
@@ -26,8 +39,11 @@ def test_bad_algo_is_one_line_and_exit_2(tmp_path):
 
 
 def test_bad_set_is_one_line_and_exit_2(tmp_path):
-    for bad, fragment in (("agent.nope=3", "agent.nope"), ("agent.batch_size=many", "agent.batch_size"),
-                          ("nokey", "nokey")):
+    for bad, fragment in (
+        ("agent.nope=3", "agent.nope"),
+        ("agent.batch_size=many", "agent.batch_size"),
+        ("nokey", "nokey"),
+    ):
         result = invoke("--set", bad, "--episodes", "1", "--out", str(tmp_path / "r"))
         assert result.exit_code == 2, bad
         assert result.stderr.strip().count("\n") == 0 and fragment in result.stderr
@@ -38,8 +54,20 @@ def test_bad_set_is_one_line_and_exit_2(tmp_path):
 
 def test_tiny_run_prints_one_json_line_and_resumes(tmp_path):
     out = tmp_path / "run"
-    result = invoke("--algo", "cacla", "--reward", "sparse", "--episodes", "3", "--seed", "4",
-                    "--out", str(out), "--json", *TINY)
+    result = invoke(
+        "--algo",
+        "cacla",
+        "--reward",
+        "sparse",
+        "--episodes",
+        "3",
+        "--seed",
+        "4",
+        "--out",
+        str(out),
+        "--json",
+        *TINY,
+    )
     assert result.exit_code == 0, result.output
     line = result.stdout.strip()
     assert line.count("\n") == 0

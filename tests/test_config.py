@@ -36,9 +36,18 @@ def test_profiles_are_fresh_objects():
 
 
 def test_overrides_are_coerced_to_field_types():
-    config = load_config("default", ["agent.batch_size=32", "agent.tau=1e-3", "run.steps=none",
-                                     "net.conv_channels=8,8", "run.final_eval=false",
-                                     "env.fixed_positions=50", "run.max_wall_s=90"])
+    config = load_config(
+        "default",
+        [
+            "agent.batch_size=32",
+            "agent.tau=1e-3",
+            "run.steps=none",
+            "net.conv_channels=8,8",
+            "run.final_eval=false",
+            "env.fixed_positions=50",
+            "run.max_wall_s=90",
+        ],
+    )
     assert config.agent.batch_size == 32 and isinstance(config.agent.batch_size, int)
     assert config.agent.tau == pytest.approx(1e-3)
     assert config.run.steps is None

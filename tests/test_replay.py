@@ -24,8 +24,13 @@ def fill(replay: PixelReplay, lengths: list[int], terminal_last: bool = True) ->
         replay.start_episode(frame(episode, 0))
         for step in range(length):
             action = np.array([episode + step / 100.0], dtype=np.float32)
-            replay.add(action, reward=float(10 * episode + step), next_obs=frame(episode, step + 1),
-                       terminated=terminal_last and step == length - 1, reward_ext=-float(step))
+            replay.add(
+                action,
+                reward=float(10 * episode + step),
+                next_obs=frame(episode, step + 1),
+                terminated=terminal_last and step == length - 1,
+                reward_ext=-float(step),
+            )
 
 
 def check_consistent(batch) -> None:

@@ -15,9 +15,18 @@ from core.run_dir import RunDirectoryError, load_checkpoint
 from core.trainer import RECORD_KEYS, train
 
 TINY = [
-    "net.conv_channels=4,4", "net.latent_dim=8", "net.critic_hidden=8", "net.actor_hidden=8",
-    "env.max_steps=8", "agent.batch_size=8", "agent.buffer_size=400", "agent.learning_starts=12",
-    "run.eval_every=3", "run.eval_episodes=2", "run.checkpoint_every=2", "run.num_threads=1",
+    "net.conv_channels=4,4",
+    "net.latent_dim=8",
+    "net.critic_hidden=8",
+    "net.actor_hidden=8",
+    "env.max_steps=8",
+    "agent.batch_size=8",
+    "agent.buffer_size=400",
+    "agent.learning_starts=12",
+    "run.eval_every=3",
+    "run.eval_episodes=2",
+    "run.checkpoint_every=2",
+    "run.num_threads=1",
 ]
 TIME_KEYS = {"time/wall_s", "charts/sps"}
 
@@ -39,8 +48,16 @@ def test_tiny_run_writes_every_run_dir_file_and_loads_as_policy(tmp_path):
     records = []
     summary = train(tiny(4), tmp_path / "run", on_episode=records.append, command="dualsys train --test")
     run = tmp_path / "run"
-    for name in ("config.yaml", "command.txt", "metrics.csv", "summary.json", "learning_curve.png",
-                 "checkpoints/latest.pt", "checkpoints/best.pt", "checkpoints/replay.pt"):
+    for name in (
+        "config.yaml",
+        "command.txt",
+        "metrics.csv",
+        "summary.json",
+        "learning_curve.png",
+        "checkpoints/latest.pt",
+        "checkpoints/best.pt",
+        "checkpoints/replay.pt",
+    ):
         assert (run / name).is_file(), name
     assert (run / "command.txt").read_text() == "dualsys train --test\n"
     saved = json.loads((run / "summary.json").read_text())
@@ -136,8 +153,15 @@ def test_policy_round_trip_gives_identical_actions(tmp_path):
     obs = np.random.default_rng(1).integers(0, 256, (6, 32, 64, 3), dtype=np.uint8)
     expected = np.stack([agent.act(o, explore=False)[0] for o in obs])
     path = tmp_path / "p.pt"
-    atomic_torch_save({"format": CHECKPOINT_FORMAT, "config": config.to_dict(), "obs_shape": [32, 64, 3],
-                       "policy": agent.policy_state()}, path)
+    atomic_torch_save(
+        {
+            "format": CHECKPOINT_FORMAT,
+            "config": config.to_dict(),
+            "obs_shape": [32, 64, 3],
+            "policy": agent.policy_state(),
+        },
+        path,
+    )
     policy = load_policy(path)
     assert policy.action_dim == 2
     np.testing.assert_allclose(policy.act(obs), expected, rtol=0, atol=1e-6)

@@ -86,7 +86,7 @@ def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> 
         from stable_baselines3.common.noise import NormalActionNoise
         from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
     except ImportError as exc:  # the bench extra is not installed
-        raise RuntimeError("sb3-ddpg needs stable-baselines3: pip install -e '.[bench]'") from exc
+        raise ValueError("sb3-ddpg needs stable-baselines3: pip install -e '.[bench]'") from exc
 
     from core.nets import Encoder
 

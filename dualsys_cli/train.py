@@ -214,6 +214,10 @@ def train_command(
         typer.echo(json.dumps({key: _json_value(summary[key]) for key in keys}))
     else:
         Console().print(_summary_table(summary))
+        run_path = Path(summary["run_dir"])
+        typer.echo(f"policy:         {run_path / 'checkpoints' / 'best.pt'} (latest: checkpoints/latest.pt)")
+        typer.echo(f"metrics:        {run_path / 'metrics.csv'} (summary: summary.json)")
+        typer.echo(f"learning curve: {run_path / 'learning_curve.png'}")
         if summary.get("stopped"):
             typer.echo(f"stopped; continue with: dualsys train --resume {summary['run_dir']}")
 

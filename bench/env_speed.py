@@ -19,6 +19,9 @@ from core.envs.nico_grasp import NicoGraspEnv
 from core.envs.quiet_bullet import quiet_client
 from core.envs.scene_files import scene_file
 
+FLOOR_EPISODE_STEPS = 16
+"""The floor re-places the glass upright this often: the mean episode length under random actions."""
+
 
 def _env_rate(seconds: float, seed: int) -> float:
     env = NicoGraspEnv()
@@ -40,18 +43,23 @@ def _floor_rate(seconds: float, seed: int) -> float:
     geometry, physics, light = env.geometry, env.physics, env.sim_lighting
     view, proj = env._views["sim"]
     window = env.window_rad
+    rng = np.random.default_rng(seed)
+    # Glass placements as the env makes them: upright on the hand's arc, re-placed every "episode".
+    placements = [env._glass_position_for(*row) for row in env._sample_positions(rng, 64)]
     env.close()
     client = quiet_client()
     client.setGravity(0, 0, -9.81)
     client.setTimeStep(physics.time_step)
     client.loadURDF(scene_file("table", geometry), useFixedBase=True)
     robot = client.loadURDF(scene_file("robot", geometry), useFixedBase=True)
-    client.loadURDF(scene_file("glass", geometry), basePosition=(0.3, -0.2, geometry.glass_height / 2))
-    rng = np.random.default_rng(seed)
+    glass = client.loadURDF(scene_file("glass", geometry), basePosition=placements[0])
     low, high = window
     client.resetJointState(robot, 0, low)
     steps, start = 0, time.perf_counter()
     while time.perf_counter() - start < seconds:
+        if steps % FLOOR_EPISODE_STEPS == 0:
+            client.resetBasePositionAndOrientation(glass, placements[steps % len(placements)], (0, 0, 0, 1))
+            client.resetJointState(robot, 0, low)
         # The same arm motion an env step commands: a random shoulder target in the window.
         client.setJointMotorControl2(
             robot,

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import queue
+import threading
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 from service.job_store import ClaimedJob
 
@@ -58,3 +60,18 @@ def describe_returncode(returncode: int | None) -> str:
         except ValueError:
             return f"signal {-returncode}"
     return f"exit code {returncode}"
+
+
+def drain_exits(
+    exits: queue.Queue[WorkerExit], lock: threading.Lock, live: dict[int, Any]
+) -> list[WorkerExit]:
+    """Take every reported exit off `exits`, forgetting each job in `live` (an executor's running table)."""
+    drained = []
+    while True:
+        try:
+            exit_ = exits.get_nowait()
+        except queue.Empty:
+            return drained
+        with lock:
+            live.pop(exit_.job_id, None)
+        drained.append(exit_)

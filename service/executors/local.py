@@ -23,7 +23,7 @@ from pathlib import Path
 from registry import PolicyRegistry
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
-from service.executors.base import WorkerExit, describe_returncode
+from service.executors.base import WorkerExit, describe_returncode, drain_exits
 from service.job_follower import follow_job
 from service.job_recorder import JobRecorder
 from service.job_store import ClaimedJob
@@ -171,16 +171,7 @@ class LocalExecutor:
             for worker in self._workers.values():
                 if worker.kill_at is not None and now >= worker.kill_at and worker.process.poll() is None:
                     worker.process.kill()
-        exits = []
-        while True:
-            try:
-                exit_ = self._exits.get_nowait()
-            except queue.Empty:
-                break
-            with self._lock:
-                self._workers.pop(exit_.job_id, None)
-            exits.append(exit_)
-        return exits
+        return drain_exits(self._exits, self._lock, self._workers)
 
     def terminate(self, job_id: int) -> None:
         with self._lock:

@@ -21,7 +21,7 @@ from registry import PolicyRegistry
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
 from service.errors import JobKindUnavailable
-from service.executors.base import WorkerExit
+from service.executors.base import WorkerExit, drain_exits
 from service.job_follower import follow_job
 from service.job_recorder import JobRecorder
 from service.job_store import ClaimedJob
@@ -143,16 +143,7 @@ class RayExecutor:
             self.ray.cancel(entry.stream, force=True)
 
     def poll(self) -> list[WorkerExit]:
-        exits = []
-        while True:
-            try:
-                exit_ = self._exits.get_nowait()
-            except queue.Empty:
-                break
-            with self._lock:
-                self._jobs.pop(exit_.job_id, None)
-            exits.append(exit_)
-        return exits
+        return drain_exits(self._exits, self._lock, self._jobs)
 
     def terminate(self, job_id: int) -> None:
         with self._lock:

@@ -40,6 +40,8 @@ from typing import Literal
 import numpy as np
 import torch
 
+from core.capacity import grown_capacity
+
 ItmDistance = Literal["l2", "squared"]
 
 
@@ -209,7 +211,7 @@ class InstantaneousTopologicalMap:
             self._adjacency[:, slot] = False
             return slot
         old = self.capacity
-        new = old * 2
+        new = grown_capacity(old, old + 1)
         self._weights = np.concatenate([self._weights, np.zeros((new - old, self.dim))])
         self._alive = np.concatenate([self._alive, np.zeros(new - old, dtype=bool)])
         adjacency = np.zeros((new, new), dtype=bool)

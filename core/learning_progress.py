@@ -28,6 +28,8 @@ from typing import Literal
 import numpy as np
 import torch
 
+from core.capacity import grown_capacity
+
 LpWarmup = Literal["unreliable", "zero_oldest"]
 
 
@@ -69,9 +71,7 @@ class LearningProgress:
         old = self.capacity
         if size <= old:
             return
-        new = old
-        while new < size:
-            new *= 2
+        new = grown_capacity(old, size)
         self._errors = np.concatenate([self._errors, np.zeros((new - old, self.window))])
         self._n_errors = np.concatenate([self._n_errors, np.zeros(new - old, dtype=np.int64)])
         self._means = np.concatenate([self._means, np.zeros((new - old, self.history + 1))])

@@ -35,6 +35,8 @@ from typing import Literal
 
 import torch
 
+from core.capacity import grown_capacity
+
 OutputActivation = Literal["linear", "released"]
 NodeInit = Literal["fresh", "parent"]
 ErrorNorm = Literal["squared", "l2"]
@@ -131,9 +133,7 @@ class ModelBank:
         old = self.capacity
         if size <= old:
             return
-        new = old
-        while new < size:
-            new *= 2
+        new = grown_capacity(old, size)
         extra = torch.zeros((new - old, self.num_params))
         self.theta = torch.cat([self.theta, extra])
         self.exp_avg = torch.cat([self.exp_avg, extra])

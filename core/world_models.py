@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from core.capacity import grown_capacity
 from core.config import DualConfig
 from core.itm import InstantaneousTopologicalMap
 from core.learning_progress import LearningProgress
@@ -198,9 +199,7 @@ class _NodeMemory:
         capacity = self.written.shape[0]
         if node < capacity:
             return
-        new = capacity
-        while new <= node:
-            new *= 2
+        new = grown_capacity(capacity, node + 1)
         pad = new - capacity
         self.latent = np.concatenate([self.latent, np.zeros((pad, *self.latent.shape[1:]), np.float32)])
         self.action = np.concatenate([self.action, np.zeros((pad, *self.action.shape[1:]), np.float32)])

@@ -25,6 +25,7 @@ demo: $(STAMP)
 	$(BIN)/dualsys train --algo i2a --reward sparse --episodes 1500
 
 test: $(STAMP)
+	bash scripts/system-packages.sh
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -q
 

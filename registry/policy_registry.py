@@ -122,7 +122,9 @@ class PolicyRegistry:
         final: Path | None = None
         try:
             with self.database.write() as session:
-                policy = session.scalar(select(Policy).where(Policy.name == name))
+                # the policy row is the lock that serialises version numbers on PostgreSQL (SQLite's write
+                # transaction already holds the whole database); a racing first insert is retried
+                policy = session.scalar(select(Policy).where(Policy.name == name).with_for_update())
                 if policy is None:
                     policy = Policy(name=name, description="")
                     session.add(policy)

@@ -7,6 +7,8 @@ set -euo pipefail
 
 # One line per package: the program it provides (checked on PATH or as a path) and the Debian package.
 NEEDED=(
+    # PostgreSQL server (initdb, pg_ctl): tests/utils/postgres_server.py starts one in a temp folder
+    /usr/lib/postgresql/15/bin/initdb:postgresql
 )
 
 missing=()

@@ -1,9 +1,11 @@
 """Queue operations on the jobs table (keyword-only functions, FastAPI-template `crud` style).
 
-The jobs table is the queue. A claim is `UPDATE jobs SET status='running', owner=... WHERE id=:id
-AND status='queued'`: whichever supervisor's UPDATE matches first wins, the others see 0 rows and
-try the next id, so a job is claimed exactly once on any database. Writes run in write-locked
-transactions (`Database.write`).
+The jobs table is the queue. A claim picks the oldest queued id and moves it with `UPDATE jobs SET
+status='running', owner=... WHERE id=:id AND status='queued'`: whichever supervisor's UPDATE matches
+first wins, the others see 0 rows and try the next id, so a job is claimed exactly once on any
+database. On PostgreSQL the pick is `SELECT ... FOR UPDATE SKIP LOCKED`, so concurrent claimers take
+different rows instead of queueing behind one; on SQLite (no row locks; `FOR UPDATE` is not rendered)
+the write transaction already holds the database's write lock. Writes run in `Database.write`.
 """
 
 from __future__ import annotations
@@ -109,7 +111,13 @@ def claim_next_job(database: Database, *, owner: str, pid: int | None = None) ->
     """Atomically move the oldest queued job to running under `owner`; None if the queue is empty."""
     for _ in range(CLAIM_RETRIES):
         with database.write() as session:
-            candidate = session.scalar(select(Job.id).where(Job.status == "queued").order_by(Job.id).limit(1))
+            candidate = session.scalar(
+                select(Job.id)
+                .where(Job.status == "queued")
+                .order_by(Job.id)
+                .limit(1)
+                .with_for_update(skip_locked=True)
+            )
             if candidate is None:
                 return None
             now = utc_now()

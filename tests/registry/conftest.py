@@ -8,7 +8,8 @@ from registry import PolicyRegistry
 
 
 @pytest.fixture()
-def policy_registry(tmp_path: Path) -> PolicyRegistry:
-    registry = PolicyRegistry.open(f"sqlite:///{tmp_path / 'registry.db'}", tmp_path / "artifacts")
+def policy_registry(database_url: str, tmp_path: Path) -> PolicyRegistry:
+    """A registry on a SQLite file, and again on PostgreSQL (`database_url` in tests/conftest.py)."""
+    registry = PolicyRegistry.open(database_url, tmp_path / "artifacts")
     yield registry
     registry.database.dispose()

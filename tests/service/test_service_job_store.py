@@ -1,10 +1,10 @@
-"""Queue operations on a real SQLite file: atomic claim, cancel rules, recovery decisions."""
+"""Queue operations on a real SQLite file and a real PostgreSQL server: atomic claim, cancel rules,
+recovery decisions."""
 
 from __future__ import annotations
 
 import threading
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
@@ -15,8 +15,8 @@ from service.migrate import upgrade_service
 
 
 @pytest.fixture()
-def database(tmp_path: Path) -> Iterator[Database]:
-    db = Database(f"sqlite:///{tmp_path / 'queue.db'}")
+def database(database_url: str) -> Iterator[Database]:
+    db = Database(database_url)
     upgrade_service(db.engine)
     yield db
     db.dispose()
@@ -111,3 +111,23 @@ def test_recovery_ignores_jobs_owned_by_someone_else(database: Database) -> None
     )
     assert status is None
     assert job_store.get_job(database, job_id=job_id).owner == "alive"
+
+
+def test_postgres_claim_skips_a_row_another_supervisor_holds(postgres_url: str) -> None:
+    """FOR UPDATE SKIP LOCKED: while one claimer holds the oldest queued row, another takes the next
+    one at once instead of waiting for it, and never the held one."""
+    database = Database(postgres_url)
+    upgrade_service(database.engine)
+    try:
+        first, second = _queue(database, 2)
+        with database.engine.connect() as holder, holder.begin():
+            held = holder.exec_driver_sql(
+                "SELECT id FROM jobs WHERE status = 'queued' ORDER BY id LIMIT 1 FOR UPDATE"
+            ).scalar()
+            assert held == first
+            claimed = job_store.claim_next_job(database, owner="b")
+            assert claimed is not None and claimed.id == second
+            assert job_store.claim_next_job(database, owner="b") is None  # the held row stays untouched
+        assert job_store.claim_next_job(database, owner="a").id == first
+    finally:
+        database.dispose()

@@ -30,8 +30,17 @@ def serve_command(
         None, "--executor", help="local (a process per job) or ray (a Ray task per job)."
     ),
     ray_address: str = typer.Option(None, "--ray-address", help="Ray cluster address for --executor ray."),
+    api_processes: int = typer.Option(
+        None,
+        "--api-processes",
+        min=1,
+        max=32,
+        help="Processes serving the API on the port (default 1); one supervisor runs the jobs.",
+    ),
 ) -> None:
     """Start the job service: REST API, SQLite queue, worker processes, policy registry."""
+    import importlib.util
+
     from registry.settings import sqlite_url
     from service.server import serve
     from service.settings import ServiceSettings
@@ -49,12 +58,12 @@ def serve_command(
             "workers": workers,
             "executor": executor,
             "ray_address": ray_address,
+            "api_processes": api_processes,
         }
         settings = ServiceSettings(**{k: v for k, v in given.items() if v is not None})
         settings.check_bind()
-        if settings.executor == "ray":
-            import importlib.util
-
-            if importlib.util.find_spec("ray") is None:
-                raise ValueError("--executor ray needs Ray: pip install 'dualsys[ray]'")
+        if settings.database_url.startswith("postgresql") and importlib.util.find_spec("psycopg") is None:
+            raise ValueError("a PostgreSQL database needs psycopg: pip install 'dualsys[postgres]'")
+        if settings.executor == "ray" and importlib.util.find_spec("ray") is None:
+            raise ValueError("--executor ray needs Ray: pip install 'dualsys[ray]'")
         serve(settings)

@@ -1,4 +1,5 @@
-"""50 concurrent submissions to two services sharing one database: 50 jobs, each run exactly once."""
+"""50 concurrent submissions, each job run exactly once: to two services sharing one database, and to one
+service with two API processes (one supervisor); on a SQLite file and on PostgreSQL."""
 
 from __future__ import annotations
 
@@ -6,46 +7,65 @@ from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 import httpx
+import pytest
 
 from tests.utils.jobs import metrics
 from tests.utils.live_service import LiveService, wait_for
 
 
-def test_fifty_concurrent_submissions_run_exactly_once(start_service: Callable[..., LiveService]) -> None:
-    first = start_service("a", workers=2)
-    second = LiveService(first.folder.parent / "b", workers=2)
-    second.settings.update(database_url=first.settings["database_url"], artifacts=first.settings["artifacts"])
-    try:
-        second.start()
-        urls = [first.url, second.url]
+def _start(layout: str, database_url: str, start_service: Callable[..., LiveService]) -> list[LiveService]:
+    if layout == "two-api-processes":
+        return [start_service("a", workers=2, api_processes=2, database_url=database_url)]
+    first = start_service("a", workers=2, database_url=database_url)
+    second = start_service("b", workers=2, database_url=database_url, artifacts=first.settings["artifacts"])
+    return [first, second]
 
-        def post(index: int) -> int:
-            headers = {"Authorization": f"Bearer {first.token}"}
-            with httpx.Client(base_url=urls[index % 2], headers=headers, timeout=60) as client:
-                response = client.post(
-                    "/jobs", json={"kind": "probe", "spec": {"episodes": 1, "interval_s": 0}}
-                )
-                assert response.status_code == 202, response.text
-                return response.json()["id"]
 
-        with ThreadPoolExecutor(max_workers=50) as pool:
-            ids = list(pool.map(post, range(50)))
-        assert sorted(ids) == list(range(1, 51))  # fifty rows, no duplicate, none lost
+def _api_pids(url: str) -> set[int]:
+    """The pids of the API processes answering 40 fresh connections, 20 at a time."""
 
-        with first.client() as client:
+    def ask(_: int) -> int:
+        return httpx.get(f"{url}/health", timeout=30).json()["pid"]
 
-            def all_succeeded() -> bool:
-                return client.get("/jobs", params={"status": "succeeded"}).json()["count"] == 50
+    with ThreadPoolExecutor(max_workers=20) as pool:
+        return set(pool.map(ask, range(40)))
 
-            wait_for(all_succeeded, timeout=150, interval=0.5, what="50 jobs to succeed")
-            jobs = client.get("/jobs", params={"limit": 100}).json()["data"]
-            assert len(jobs) == 50
-            assert all(j["attempt"] == 1 for j in jobs)  # claimed once, never re-run
-            pids = set()
-            for job_id in ids:
-                rows = metrics(client, job_id)
-                assert [r["episode"] for r in rows] == [1]
-                pids.add(rows[0]["data"]["probe/pid"])
-            assert len(pids) == 50  # one process per job
-    finally:
-        second.kill()
+
+@pytest.mark.parametrize("layout", ["two-services", "two-api-processes"])
+def test_fifty_concurrent_submissions_run_exactly_once(
+    layout: str, database_url: str, start_service: Callable[..., LiveService]
+) -> None:
+    services = _start(layout, database_url, start_service)
+    first = services[0]
+    urls = [service.url for service in services]
+    if layout == "two-api-processes":
+        assert len(_api_pids(first.url)) == 2  # both API processes answer
+        health = httpx.get(f"{first.url}/health", timeout=30).json()
+        assert health["running_jobs"] is False  # the API processes only queue; the parent runs jobs
+
+    def post(index: int) -> int:
+        headers = {"Authorization": f"Bearer {first.token}"}
+        with httpx.Client(base_url=urls[index % len(urls)], headers=headers, timeout=60) as client:
+            response = client.post("/jobs", json={"kind": "probe", "spec": {"episodes": 1, "interval_s": 0}})
+            assert response.status_code == 202, response.text
+            return response.json()["id"]
+
+    with ThreadPoolExecutor(max_workers=50) as pool:
+        ids = list(pool.map(post, range(50)))
+    assert sorted(ids) == list(range(1, 51))  # fifty rows, no duplicate, none lost
+
+    with first.client() as client:
+
+        def all_succeeded() -> bool:
+            return client.get("/jobs", params={"status": "succeeded"}).json()["count"] == 50
+
+        wait_for(all_succeeded, timeout=150, interval=0.5, what="50 jobs to succeed")
+        jobs = client.get("/jobs", params={"limit": 100}).json()["data"]
+        assert len(jobs) == 50
+        assert all(j["attempt"] == 1 for j in jobs)  # claimed once, never re-run
+        pids = set()
+        for job_id in ids:
+            rows = metrics(client, job_id)
+            assert [r["episode"] for r in rows] == [1]
+            pids.add(rows[0]["data"]["probe/pid"])
+        assert len(pids) == 50  # one process per job

@@ -1,7 +1,10 @@
-"""`GET /health`: the database answers, which executor runs jobs, and the queue's counts."""
+"""`GET /health`: the database answers, which executor runs jobs, and the queue's counts.
+
+`pid` names the API process that answered (with `dualsys serve --api-processes N` there are N)."""
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 from fastapi import APIRouter
@@ -23,5 +26,6 @@ def health(state: StateDep) -> dict[str, Any]:
         "executor": state.settings.executor,
         "workers": state.settings.workers,
         "running_jobs": state.supervisor is not None,
+        "pid": os.getpid(),
         "jobs": job_store.count_by_status(state.database),
     }

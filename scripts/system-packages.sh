@@ -9,6 +9,9 @@ set -euo pipefail
 NEEDED=(
     # PostgreSQL server (initdb, pg_ctl): tests/utils/postgres_server.py starts one in a temp folder
     /usr/lib/postgresql/15/bin/initdb:postgresql
+    # headless Chromium and its WebDriver: the dashboard's browser tests (tests/service/test_ui_browser.py)
+    chromium:chromium
+    chromedriver:chromium-driver
 )
 
 missing=()

@@ -27,6 +27,7 @@ from service.migrate import upgrade_service
 from service.schemas.specs import warm_up_validators
 from service.settings import ServiceSettings
 from service.supervisor import Supervisor
+from service.ui.routes import install_dashboard
 
 log = logging.getLogger("dualsys.service")
 
@@ -68,4 +69,5 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
     app.include_router(jobs.router)
     app.include_router(policies.router)
     app.include_router(health.router)
+    install_dashboard(app)  # the web dashboard under /ui (service/ui/)
     return app

@@ -1,0 +1,257 @@
+"""The dashboard's pages under `/ui` (server-rendered with Jinja2; `/` redirects to `/ui`).
+
+Pages only read. Every action a page offers (cancel a job, move an alias, set a tag) is a `fetch` from
+the browser to the REST API with the bearer token the person typed into the page, so an action is
+allowed or refused by exactly the same code as a REST client's request. Templates autoescape every
+value; data handed to the browser's scripts travels in `<script type="application/json">` blocks
+written with Jinja's `tojson` (which escapes `<`, `>`, `&` and `'`), and a Content-Security-Policy
+allows only the package's own scripts and styles.
+
+Each page answers with a `Server-Timing: render;dur=<ms>` header (queries + template), which the
+dashboard benchmark reads.
+"""
+
+from __future__ import annotations
+
+import time
+from datetime import UTC, datetime
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query
+from fastapi.responses import HTMLResponse, RedirectResponse
+from sqlalchemy import select
+
+from registry.errors import RegistryError
+from registry.models import Policy, PolicyVersion
+from service import job_store
+from service.api.deps import StateDep
+from service.errors import JobNotFound
+from service.models import JOB_STATUSES, Job
+from service.schemas.jobs import JobKindName
+from service.ui.rendering import render
+from service.ui.views import SuccessTracker, diagnostic_groups, flatten_config, job_row, summary_success
+
+PAGE_SIZE = 50
+JOB_KINDS: tuple[str, ...] = JobKindName.__args__  # type: ignore[attr-defined]
+LIVE_STATUSES = ("queued", "running")
+
+router = APIRouter(prefix="/ui", include_in_schema=False)
+root_router = APIRouter(include_in_schema=False)
+_success = SuccessTracker()
+
+
+@root_router.get("/")
+async def root() -> RedirectResponse:
+    return RedirectResponse("/ui", status_code=307)
+
+
+def _page(template: str, started: float, status_code: int = 200, **context: Any) -> HTMLResponse:
+    body = render(template, **context)
+    elapsed = 1000 * (time.perf_counter() - started)
+    return HTMLResponse(body, status_code=status_code, headers={"Server-Timing": f"render;dur={elapsed:.2f}"})
+
+
+def _not_found(started: float, message: str) -> HTMLResponse:
+    return _page("not_found.html", started, status_code=404, title="Not found", message=message)
+
+
+def _jobs_context(state: Any, status: str | None, kind: str | None, page: int) -> dict[str, Any]:
+    offset = (page - 1) * PAGE_SIZE
+    rows, count = job_store.list_jobs(
+        state.database, status=status, kind=kind, offset=offset, limit=PAGE_SIZE
+    )
+    successes = _success.current(state.database, rows)
+    now = datetime.now(UTC)
+    pages = max(1, -(-count // PAGE_SIZE))
+    return {
+        "jobs": [job_row(job, successes.get(job.id), now) for job in rows],
+        "count": count,
+        "page": page,
+        "pages": pages,
+        "first": offset + 1 if rows else 0,
+        "last": offset + len(rows),
+        "status": status or "",
+        "kind": kind or "",
+        "statuses": JOB_STATUSES,
+        "kinds": JOB_KINDS,
+        "live": any(job.status in LIVE_STATUSES for job in rows) or page == 1,
+    }
+
+
+PageQuery = Annotated[int, Query(ge=1, le=10**7)]
+
+
+def _blank(value: str | None) -> str | None:
+    return value or None
+
+
+@router.get("", response_class=HTMLResponse)
+def jobs_page(
+    state: StateDep,
+    status: Annotated[str | None, Query()] = None,
+    kind: Annotated[str | None, Query()] = None,
+    page: PageQuery = 1,
+) -> HTMLResponse:
+    """The jobs table, newest first, filtered and paged; the page's script refreshes its rows."""
+    started = time.perf_counter()
+    status, kind = _blank(status), _blank(kind)
+    if status is not None and status not in JOB_STATUSES:
+        return _not_found(started, f"unknown status {status!r}")
+    if kind is not None and kind not in JOB_KINDS:
+        return _not_found(started, f"unknown kind {kind!r}")
+    context = _jobs_context(state, status, kind, page)
+    return _page("jobs.html", started, title="Jobs", nav="jobs", **context)
+
+
+@router.get("/jobs/rows", response_class=HTMLResponse)
+def jobs_rows(
+    state: StateDep,
+    status: Annotated[str | None, Query()] = None,
+    kind: Annotated[str | None, Query()] = None,
+    page: PageQuery = 1,
+) -> HTMLResponse:
+    """The table's body and counts alone: what the jobs page polls (at most once a second)."""
+    started = time.perf_counter()
+    status, kind = _blank(status), _blank(kind)
+    if (status is not None and status not in JOB_STATUSES) or (kind is not None and kind not in JOB_KINDS):
+        return HTMLResponse("", status_code=404)
+    context = _jobs_context(state, status, kind, page)
+    return _page("_jobs_rows.html", started, **context)
+
+
+@router.get("/jobs/{job_id}", response_class=HTMLResponse)
+def job_page(job_id: int, state: StateDep) -> HTMLResponse:
+    """One job: spec and config, live learning curve and diagnostics, artifacts, cancel."""
+    started = time.perf_counter()
+    try:
+        job = job_store.get_job(state.database, job_id=job_id)
+        artifacts = job_store.list_artifacts(state.database, job_id=job_id)
+    except JobNotFound:
+        return _not_found(started, f"no job with id {job_id}")
+    success = summary_success(job.summary) if job.summary else None
+    if success is None:
+        success = _success.current(state.database, [job]).get(job.id)
+    row = job_row(job, success, datetime.now(UTC))
+    config = (job.resolved or {}).get("config")
+    resolved_rest = {k: v for k, v in (job.resolved or {}).items() if k != "config"}
+    produced = _versions_of_job(state, job_id)
+    return _page(
+        "job.html",
+        started,
+        title=f"Job {job_id}",
+        nav="jobs",
+        job=job,
+        row=row,
+        config_sections=flatten_config(config) if isinstance(config, dict) else [],
+        resolved_rest=resolved_rest,
+        artifacts=artifacts,
+        produced=produced,
+        live=job.status in LIVE_STATUSES,
+        page_data={
+            "job_id": job.id,
+            "status": job.status,
+            "live": job.status in LIVE_STATUSES,
+            "total": job.progress_total,
+            "diagnostics": diagnostic_groups(),
+        },
+    )
+
+
+def _versions_of_job(state: Any, job_id: int) -> list[str]:
+    """`name@version` of every policy version registered from this job."""
+    with state.database.read() as session:
+        rows = session.execute(
+            select(Policy.name, PolicyVersion.version)
+            .join(PolicyVersion, PolicyVersion.policy_id == Policy.id)
+            .where(PolicyVersion.source_job_id == job_id)
+            .order_by(Policy.name, PolicyVersion.version)
+        ).all()
+    return [f"{name}@{version}" for name, version in rows]
+
+
+@router.get("/policies", response_class=HTMLResponse)
+def policies_page(state: StateDep) -> HTMLResponse:
+    """Every policy with its newest version and aliases."""
+    started = time.perf_counter()
+    policies = state.registry.list_policies()
+    return _page("policies.html", started, title="Registry", nav="policies", policies=policies)
+
+
+@router.get("/policies/{name}", response_class=HTMLResponse)
+def policy_page(name: str, state: StateDep) -> HTMLResponse:
+    """A policy's versions (newest first) with tags, aliases, lineage, source jobs and artifacts."""
+    started = time.perf_counter()
+    try:
+        policy = state.registry.get_policy(name)
+    except RegistryError as error:
+        return _not_found(started, str(error))
+    versions = list(reversed(policy.versions))
+    lineages: dict[int, list[str]] = {}
+    for version in versions:
+        if version.parent:
+            try:
+                chain = state.registry.lineage(version.ref)
+            except RegistryError:
+                chain = []
+            lineages[version.version] = [record.ref for record in chain[1:]]
+    job_ids = {v.source_job_id for v in versions if v.source_job_id is not None}
+    existing = _existing_jobs(state, job_ids)
+    return _page(
+        "policy.html",
+        started,
+        title=f"Policy {policy.name}",
+        nav="policies",
+        policy=policy,
+        versions=versions,
+        lineages=lineages,
+        existing_jobs=existing,
+        page_data={"policy": policy.name},
+    )
+
+
+def _existing_jobs(state: Any, job_ids: set[int]) -> set[int]:
+    if not job_ids:
+        return set()
+    with state.database.read() as session:
+        return set(session.scalars(select(Job.id).where(Job.id.in_(job_ids))))
+
+
+def install_dashboard(app: Any) -> None:
+    """Mount the dashboard's pages, its static files and the `/` redirect on the FastAPI app."""
+    from service.ui.rendering import static_files
+
+    app.include_router(router)
+    app.include_router(root_router)
+    app.mount("/ui/static", static_files(), name="ui-static")
+    app.add_middleware(_SecurityHeaders)
+
+
+class _SecurityHeaders:
+    """Content-Security-Policy and friends on every `/ui` response (pure ASGI: no body buffering)."""
+
+    HEADERS = (
+        (
+            b"content-security-policy",
+            b"default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
+            b"connect-src 'self'; object-src 'none'; base-uri 'none'; form-action 'self'; "
+            b"frame-ancestors 'none'",
+        ),
+        (b"x-content-type-options", b"nosniff"),
+        (b"referrer-policy", b"same-origin"),
+        (b"x-frame-options", b"DENY"),
+    )
+
+    def __init__(self, app: Any) -> None:
+        self.app = app
+
+    async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
+        if scope["type"] != "http" or not str(scope.get("path", "")).startswith("/ui"):
+            await self.app(scope, receive, send)
+            return
+
+        async def send_with_headers(message: dict) -> None:
+            if message["type"] == "http.response.start":
+                message = {**message, "headers": [*message.get("headers", []), *self.HEADERS]}
+            await send(message)
+
+        await self.app(scope, receive, send_with_headers)

@@ -1,0 +1,62 @@
+// Jobs page: the filters submit on change, and the table's rows are re-fetched from
+// /ui/jobs/rows (rendered and escaped by the server) at most once a second while the tab is visible.
+"use strict";
+
+(function () {
+  const PERIOD_MS = 1000;
+  const form = document.getElementById("filters");
+  const live = document.getElementById("jobs-live");
+  const label = document.getElementById("live-state");
+  if (!live) return;
+
+  form.querySelectorAll("select").forEach(function (select) {
+    select.addEventListener("change", function () {
+      form.submit();
+    });
+  });
+
+  const query = new URLSearchParams();
+  if (live.dataset.status) query.set("status", live.dataset.status);
+  if (live.dataset.kind) query.set("kind", live.dataset.kind);
+  query.set("page", live.dataset.page || "1");
+  const url = "/ui/jobs/rows?" + query.toString();
+  let last = null;
+  let busy = false;
+
+  function hasLiveRows() {
+    return live.querySelector('tr[data-status="queued"], tr[data-status="running"]') !== null;
+  }
+
+  async function refresh() {
+    if (busy || document.hidden) return;
+    // page 1 shows new jobs as they are submitted; later pages only change while a row is live
+    if (live.dataset.page !== "1" && !hasLiveRows()) {
+      label.textContent = "";
+      return;
+    }
+    busy = true;
+    try {
+      const response = await fetch(url, { cache: "no-store" });
+      if (response.ok) {
+        const html = await response.text();
+        if (html !== last) {
+          last = html;
+          live.innerHTML = html;
+        }
+        label.textContent = "live";
+        label.className = "live-state on";
+      } else {
+        label.textContent = "refresh failed: HTTP " + response.status;
+        label.className = "live-state off";
+      }
+    } catch (error) {
+      label.textContent = "service unreachable";
+      label.className = "live-state off";
+    } finally {
+      busy = false;
+    }
+  }
+
+  window.setInterval(refresh, PERIOD_MS);
+  document.addEventListener("visibilitychange", refresh);
+})();

@@ -57,6 +57,9 @@ class RunConfig:
     """Write checkpoints/latest.pt (+ the replay buffer) every N episodes and at the end or on a stop.
     Saving the buffer costs ~0.8 s per 25k transitions, and a learned grasp takes 2-3 steps, so a small N
     would spend a fifth of the run writing checkpoints."""
+    checkpoint_every_s: float | None = 60.0
+    """Also write checkpoints/latest.pt when this many seconds have passed since the last one (checked at
+    episode ends; None: by episode only), so an interrupted run loses at most about this much training."""
     device: str = "cpu"
     """torch device for the networks."""
     num_threads: int = 1
@@ -71,10 +74,13 @@ class RunConfig:
 class EnvConfig:
     """Keyword arguments of ``core.envs.NicoGraspEnv`` (see the environment contract)."""
 
+    level: Literal["released", "paper", "hard"] = "released"
+    """Task level (core/envs/levels.py; calibrated in docs/environment.md): released, paper or hard."""
     reward_mode: Literal["dense", "sparse"] = "dense"
     """Extrinsic reward of Section 4.1.2: dense shaping or 0 outside grasp/topple."""
-    hand: Literal["auto", "learned"] = "auto"
-    """auto: 1-D shoulder action, grasp starts automatically (released code); learned: 2-D action."""
+    hand: Literal["auto", "learned"] | None = None
+    """auto: 1-D shoulder action, grasp starts automatically (released code); learned: 2-D action.
+    None: the level's hand (released: auto; paper, hard: learned), resolved when the config is loaded."""
     dense_shaping: Literal["distance", "squared"] = "distance"
     """−d (paper text) or −d² (released code)."""
     fixed_positions: int | None = None
@@ -248,7 +254,9 @@ def _paper_profile() -> Config:
     """Section 4.1.1 values; the released code where the text is silent (see docs/config.md)."""
     return Config(
         run=RunConfig(episodes=10_000, eval_every=250, checkpoint_every=250),
-        env=EnvConfig(hand="learned", dense_shaping="distance", fixed_positions=None, max_steps=50),
+        env=EnvConfig(
+            level="paper", hand="learned", dense_shaping="distance", fixed_positions=None, max_steps=50
+        ),
         net=NetConfig(
             arch="paper",
             conv_channels=(16, 8, 4),
@@ -306,7 +314,19 @@ def load_config(
         if not sep or not key.strip():
             raise ConfigError(f"override {item!r} is not of the form section.key=value")
         set_value(config, key.strip(), raw.strip())
-    return config
+    return resolve_level_defaults(config)
+
+
+def resolve_level_defaults(config: Config) -> Config:
+    """A config with what the task level decides filled in where it is left open (``env.hand`` None: the
+    level's hand); `config` itself is not changed."""
+    from core.envs.levels import LEVELS
+
+    if config.env.hand is not None:
+        return config
+    return dataclasses.replace(
+        config, env=dataclasses.replace(config.env, hand=LEVELS[config.env.level].hand)
+    )
 
 
 def read_config_file(path: Path) -> dict[str, Any]:
@@ -472,7 +492,13 @@ def check_config(config: Config) -> None:
     for key in _NON_NEGATIVE:
         if value(key) < 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be >= 0)")
-    for key in ("run.episodes", "run.steps", "run.max_wall_s", "env.fixed_positions"):
+    for key in (
+        "run.episodes",
+        "run.steps",
+        "run.max_wall_s",
+        "run.checkpoint_every_s",
+        "env.fixed_positions",
+    ):
         if value(key) is not None and value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0 or none)")
     if not 0.0 <= config.agent.gamma <= 1.0:
@@ -484,5 +510,13 @@ def check_config(config: Config) -> None:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
     if not config.net.conv_channels or min(config.net.conv_channels) < 1:
         raise ConfigError("bad value for net.conv_channels: needs at least one positive channel count")
+    from core.envs.levels import LEVELS
+
+    level = LEVELS[config.env.level]
+    if config.env.hand is not None and config.env.hand not in level.hands:
+        raise ConfigError(
+            f"bad value for env.hand: level {level.name!r} admits {' or '.join(level.hands)}, "
+            f"got {config.env.hand!r}"
+        )
     if config.run.episodes is None and config.run.steps is None and config.run.max_wall_s is None:
         raise ConfigError("the run needs a budget: set run.episodes, run.steps or run.max_wall_s")

@@ -18,6 +18,9 @@ metrics.csv and to ``on_episode``. Losses are the mean over the episode's update
   evaluation (success rate, then return).
 * Budget: ``run.episodes``, ``run.steps`` and ``run.max_wall_s``, checked at episode boundaries (the run
   ends at the first boundary at or past any of them).
+* Checkpoints: ``latest.pt`` + ``replay.pt`` every ``run.checkpoint_every`` episodes, and at the first
+  episode end ``run.checkpoint_every_s`` seconds after the previous checkpoint (so a killed process loses
+  at most about that much training), and when the run ends or stops.
 * Stopping: ``should_stop()`` is polled every step; Ctrl-C (SIGINT, when called from the main thread)
   sets the same flag (a second Ctrl-C aborts at once). A stop abandons the current episode (its
   transitions stay in the replay buffer and in ``global_step``), writes ``latest.pt`` + ``replay.pt``
@@ -46,7 +49,7 @@ import torch
 
 from core.agent import Agent, EnvSpec, Transition, generator_state, restore_generator
 from core.algos import make_agent, resolve_algo
-from core.config import Config, ConfigError, check_config
+from core.config import Config, ConfigError, check_config, resolve_level_defaults
 from core.metrics import area_under_curve, final_performance
 from core.run_dir import (
     CHECKPOINT_FORMAT,
@@ -110,6 +113,7 @@ def env_kwargs(config: Config) -> dict[str, Any]:
     """The ``NicoGraspEnv`` keyword arguments of ``config.env``."""
     env = config.env
     return {
+        "level": env.level,
         "reward_mode": env.reward_mode,
         "hand": env.hand,
         "dense_shaping": env.dense_shaping,
@@ -202,7 +206,7 @@ class _Trainer:
         should_stop: Callable[[], bool] | None,
         command: str | None,
     ) -> None:
-        self.config = resolve_algo(config)
+        self.config = resolve_level_defaults(resolve_algo(config))
         check_config(self.config)
         self.dir = RunDirectory(run_dir)
         self.on_episode = on_episode
@@ -314,6 +318,7 @@ class _Trainer:
                 self._restore(checkpoint, agent, env)
                 first_reset_seed = None
             start_time = time.perf_counter()
+            last_checkpoint = start_time
             start_step = self.global_step
             stopped = False
 
@@ -339,8 +344,9 @@ class _Trainer:
                     self.csv.append(record)
                     if self.on_episode is not None:
                         self.on_episode(dict(record))
-                    if cfg.run.checkpoint_every > 0 and self.episode % cfg.run.checkpoint_every == 0:
+                    if self._checkpoint_due(time.perf_counter() - last_checkpoint):
                         self._save_latest(agent, env, wall())
+                        last_checkpoint = time.perf_counter()
                 final_eval = {}
                 if (
                     not stopped
@@ -369,6 +375,13 @@ class _Trainer:
             env.close()
             if eval_env is not None:
                 eval_env.close()
+
+    def _checkpoint_due(self, since_last_s: float) -> bool:
+        """Every ``run.checkpoint_every`` episodes, or ``run.checkpoint_every_s`` s after the last one."""
+        run = self.config.run
+        by_episode = run.checkpoint_every > 0 and self.episode % run.checkpoint_every == 0
+        by_time = run.checkpoint_every_s is not None and since_last_s >= run.checkpoint_every_s
+        return by_episode or by_time
 
     def _budget_spent(self, wall_s: float) -> bool:
         run = self.config.run

@@ -22,12 +22,17 @@ def _emit(result: dict, as_json: bool) -> None:
 @app.command("env")
 def bench_env(
     seconds: float = typer.Option(6.0, help="Wall-clock seconds per measurement."),
+    level: str = typer.Option("released", help="Task level: released | paper | hard."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
 ) -> None:
-    """Env steps per second under random actions, beside the bare-PyBullet floor."""
-    from bench.env_speed import measure
+    """Env steps per second under random actions, beside the bare-PyBullet floor of the same scene."""
+    with user_errors():
+        from bench.env_speed import measure
+        from core.envs.levels import get_level
 
-    _emit(measure(seconds=seconds), as_json)
+        get_level(level)
+        result = measure(seconds=seconds, level=level)
+    _emit(result, as_json)
 
 
 @app.command("modelbank")
@@ -44,8 +49,11 @@ def bench_modelbank(
 
 @app.command("train")
 def bench_train(
-    algos: str = typer.Option("ddpg,sb3-ddpg", help="Comma-separated methods: sb3-ddpg or any --algo "
-                              "(ddpg, cacla, im2c, i2a, mve, cmc, la-imagination)."),
+    algos: str = typer.Option(
+        "ddpg,sb3-ddpg",
+        help="Comma-separated methods: sb3-ddpg or any --algo "
+        "(ddpg, cacla, im2c, i2a, mve, cmc, la-imagination).",
+    ),
     batch: int = typer.Option(None, min=1, help="Minibatch size (default: the default profile's)."),
     steps: int = typer.Option(300, min=10, help="Timed training steps per method and round."),
     rounds: int = typer.Option(2, min=1, help="Alternating rounds; the median is reported."),
@@ -55,8 +63,12 @@ def bench_train(
     from bench.train_speed import measure
 
     with user_errors():
-        result = measure(algos=tuple(a.strip() for a in algos.split(",") if a.strip()), batch=batch,
-                         steps=steps, rounds=rounds)
+        result = measure(
+            algos=tuple(a.strip() for a in algos.split(",") if a.strip()),
+            batch=batch,
+            steps=steps,
+            rounds=rounds,
+        )
     _emit(result, as_json)
 
 
@@ -79,11 +91,20 @@ def bench_onnx(
 def bench_service(
     seconds: float = typer.Option(10.0, min=1.0, help="Seconds of load."),
     clients: int = typer.Option(20, min=1, max=200, help="Concurrent HTTP clients."),
+    api_processes: str = typer.Option(
+        "1", "--api-processes", help="Comma-separated API-process counts, one service each (e.g. 1,2)."
+    ),
+    jobs_in_table: int = typer.Option(10_000, min=1, help="Jobs in the table while GET /jobs is timed."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
 ) -> None:
     """p50/p99 of GET and POST /jobs under concurrent clients while a training job runs (goal p99 < 50 ms)."""
     from bench.service_speed import measure
 
     with user_errors():
-        result = measure(seconds=seconds, clients=clients)
+        counts = tuple(int(n) for n in api_processes.split(",") if n.strip()) if api_processes else ()
+        if not counts or any(n < 1 or n > 32 for n in counts):
+            raise ValueError(f"--api-processes wants counts from 1 to 32 such as 1,2 (got {api_processes!r})")
+        result = measure(
+            seconds=seconds, clients=clients, api_processes=counts, jobs_in_table=jobs_in_table
+        )
     _emit(result, as_json)

@@ -68,10 +68,17 @@ class ExportReport:
     metadata: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"path": str(self.path), "opset": self.opset, "input_name": self.input_name,
-                "output_name": self.output_name, "action_dim": self.action_dim,
-                "max_abs_diff": self.max_abs_diff, "random_images": self.random_images,
-                "env_images": self.env_images, "batch_sizes": list(self.batch_sizes)}
+        return {
+            "path": str(self.path),
+            "opset": self.opset,
+            "input_name": self.input_name,
+            "output_name": self.output_name,
+            "action_dim": self.action_dim,
+            "max_abs_diff": self.max_abs_diff,
+            "random_images": self.random_images,
+            "env_images": self.env_images,
+            "batch_sizes": list(self.batch_sizes),
+        }
 
 
 def onnx_bytes(network: PolicyNetwork, obs_shape: tuple[int, int, int], opset: int = DEFAULT_OPSET) -> bytes:
@@ -81,9 +88,16 @@ def onnx_bytes(network: PolicyNetwork, obs_shape: tuple[int, int, int], opset: i
     buffer = io.BytesIO()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        torch.onnx.export(network, (example,), buffer, dynamo=False, opset_version=opset,
-                          input_names=[INPUT_NAME], output_names=[OUTPUT_NAME],
-                          dynamic_axes={INPUT_NAME: {0: "batch"}, OUTPUT_NAME: {0: "batch"}})
+        torch.onnx.export(
+            network,
+            (example,),
+            buffer,
+            dynamo=False,
+            opset_version=opset,
+            input_names=[INPUT_NAME],
+            output_names=[OUTPUT_NAME],
+            dynamic_axes={INPUT_NAME: {0: "batch"}, OUTPUT_NAME: {0: "batch"}},
+        )
     return buffer.getvalue()
 
 
@@ -99,9 +113,14 @@ def with_metadata(model_bytes: bytes, metadata: dict[str, str]) -> bytes:
     return model.SerializeToString()
 
 
-def check_onnx_parity(model: bytes | Path, network: PolicyNetwork, images: np.ndarray, *,
-                      tolerance: float = PARITY_TOLERANCE,
-                      batch_sizes: tuple[int, ...] = PARITY_BATCH_SIZES) -> float:
+def check_onnx_parity(
+    model: bytes | Path,
+    network: PolicyNetwork,
+    images: np.ndarray,
+    *,
+    tolerance: float = PARITY_TOLERANCE,
+    batch_sizes: tuple[int, ...] = PARITY_BATCH_SIZES,
+) -> float:
     """Max |onnxruntime − PyTorch| over ``images`` per batch size and all at once; raises above tolerance."""
     import onnxruntime
 
@@ -112,22 +131,29 @@ def check_onnx_parity(model: bytes | Path, network: PolicyNetwork, images: np.nd
         expected = network.eval()(torch.from_numpy(images)).numpy()
     worst = 0.0
     for batch in (*batch_sizes, len(images)):
-        chunks = [session.run([OUTPUT_NAME], {INPUT_NAME: images[i:i + batch]})[0]
-                  for i in range(0, len(images), batch)]
+        chunks = [
+            session.run([OUTPUT_NAME], {INPUT_NAME: images[i : i + batch]})[0]
+            for i in range(0, len(images), batch)
+        ]
         got = np.concatenate(chunks)
         if got.shape != expected.shape:
-            raise OnnxParityError(f"onnxruntime output shape {list(got.shape)} at batch {batch} differs from "
-                                  f"PyTorch's {list(expected.shape)}")
+            raise OnnxParityError(
+                f"onnxruntime output shape {list(got.shape)} at batch {batch} differs from "
+                f"PyTorch's {list(expected.shape)}"
+            )
         diff = float(np.max(np.abs(got - expected)))
         if not np.isfinite(diff) or diff > tolerance:
-            raise OnnxParityError(f"ONNX parity check failed: max |onnxruntime - PyTorch| = {diff:.3g} at "
-                                  f"batch {batch} exceeds {tolerance:g}")
+            raise OnnxParityError(
+                f"ONNX parity check failed: max |onnxruntime - PyTorch| = {diff:.3g} at "
+                f"batch {batch} exceeds {tolerance:g}"
+            )
         worst = max(worst, diff)
     return worst
 
 
-def parity_images(obs_shape: tuple[int, int, int], *, random_images: int, env_images: int,
-                  seed: int) -> np.ndarray:
+def parity_images(
+    obs_shape: tuple[int, int, int], *, random_images: int, env_images: int, seed: int
+) -> np.ndarray:
     """``random_images`` uniform uint8 images followed by ``env_images`` NicoGrasp images (both cameras)."""
     rng = np.random.default_rng(seed)
     parts = [rng.integers(0, 256, size=(random_images, *obs_shape), dtype=np.uint8)]
@@ -136,9 +162,16 @@ def parity_images(obs_shape: tuple[int, int, int], *, random_images: int, env_im
     return np.concatenate(parts)
 
 
-def export_policy(policy: Policy, *, out: Path | str, opset: int = DEFAULT_OPSET,
-                  random_images: int = 256, env_images: int = 256, tolerance: float = PARITY_TOLERANCE,
-                  seed: int = 0) -> ExportReport:
+def export_policy(
+    policy: Policy,
+    *,
+    out: Path | str,
+    opset: int = DEFAULT_OPSET,
+    random_images: int = 256,
+    env_images: int = 256,
+    tolerance: float = PARITY_TOLERANCE,
+    seed: int = 0,
+) -> ExportReport:
     """Export a loaded policy to ``out`` after the parity check (see the module docstring)."""
     out = Path(out)
     if out.is_dir():
@@ -162,27 +195,54 @@ def export_policy(policy: Policy, *, out: Path | str, opset: int = DEFAULT_OPSET
         "action_dim": str(policy.action_dim),
         "action_meaning": "shoulder change x 20 deg" + (", close if > 0" if policy.action_dim == 2 else ""),
         "hand": policy.config.env.hand,
+        "level": policy.config.env.level,
         "source_checkpoint": str(policy.source),
     }
     model = onnx_bytes(policy.network, obs_shape, opset)
     images = parity_images(obs_shape, random_images=random_images, env_images=env_images, seed=seed)
     max_diff = check_onnx_parity(model, policy.network, images, tolerance=tolerance)
-    metadata.update({"parity_max_abs_diff": f"{max_diff:.3g}", "parity_tolerance": f"{tolerance:g}",
-                     "parity_images": f"{random_images} random + {env_images} environment"})
+    metadata.update(
+        {
+            "parity_max_abs_diff": f"{max_diff:.3g}",
+            "parity_tolerance": f"{tolerance:g}",
+            "parity_images": f"{random_images} random + {env_images} environment",
+        }
+    )
     final = with_metadata(model, metadata)
     check_onnx_parity(final, policy.network, images[:64], tolerance=tolerance, batch_sizes=(1,))
     atomic_write_bytes(out, final)
     out.chmod(0o644)
-    return ExportReport(path=out, opset=opset, input_name=INPUT_NAME, output_name=OUTPUT_NAME,
-                        action_dim=policy.action_dim, max_abs_diff=max_diff, random_images=random_images,
-                        env_images=env_images, batch_sizes=(*PARITY_BATCH_SIZES, len(images)),
-                        metadata=metadata)
+    return ExportReport(
+        path=out,
+        opset=opset,
+        input_name=INPUT_NAME,
+        output_name=OUTPUT_NAME,
+        action_dim=policy.action_dim,
+        max_abs_diff=max_diff,
+        random_images=random_images,
+        env_images=env_images,
+        batch_sizes=(*PARITY_BATCH_SIZES, len(images)),
+        metadata=metadata,
+    )
 
 
-def export_onnx(*, policy_path: Path | str, out: Path | str, opset: int = DEFAULT_OPSET,
-                random_images: int = 256, env_images: int = 256, tolerance: float = PARITY_TOLERANCE,
-                seed: int = 0) -> ExportReport:
+def export_onnx(
+    *,
+    policy_path: Path | str,
+    out: Path | str,
+    opset: int = DEFAULT_OPSET,
+    random_images: int = 256,
+    env_images: int = 256,
+    tolerance: float = PARITY_TOLERANCE,
+    seed: int = 0,
+) -> ExportReport:
     """Load the policy of a run directory or checkpoint and export it (``dualsys export``, export jobs)."""
-    return export_policy(load_policy(policy_path), out=out, opset=opset, random_images=random_images,
-                         env_images=env_images, tolerance=tolerance, seed=seed)
-
+    return export_policy(
+        load_policy(policy_path),
+        out=out,
+        opset=opset,
+        random_images=random_images,
+        env_images=env_images,
+        tolerance=tolerance,
+        seed=seed,
+    )

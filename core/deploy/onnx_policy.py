@@ -31,8 +31,9 @@ class OnnxPolicy:
             options.intra_op_num_threads = int(threads)
             options.inter_op_num_threads = 1
         try:
-            self.session = onnxruntime.InferenceSession(str(self.path), options,
-                                                        providers=["CPUExecutionProvider"])
+            self.session = onnxruntime.InferenceSession(
+                str(self.path), options, providers=["CPUExecutionProvider"]
+            )
         except Exception as exc:  # onnxruntime raises its own exception types for a bad file
             raise OnnxPolicyError(f"cannot load ONNX policy {self.path}: {exc}".splitlines()[0]) from None
         self.metadata: dict[str, str] = dict(self.session.get_modelmeta().custom_metadata_map)
@@ -42,6 +43,8 @@ class OnnxPolicy:
         output_dim = self.session.get_outputs()[0].shape[-1]
         self.action_dim = int(self.metadata.get("action_dim", output_dim))
         self.hand = self.metadata.get("hand", "auto" if self.action_dim == 1 else "learned")
+        self.level = self.metadata.get("level", "released")
+        """Task level the policy was trained on (exports from before task levels: released)."""
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Actions for uint8 observations ``[N, H, W, 3]`` (or one ``[H, W, 3]`` → ``[1, A]``)."""

@@ -22,20 +22,23 @@ from core.policy import load_policy
 DOMAINS = ("sim", "real")
 
 
-def load_deployable(policy_path: Path | str, *, onnx: bool = False,
-                    workdir: Path | None = None) -> tuple[PolicyFn, str]:
-    """``(act, hand)`` for a checkpoint/run directory (PyTorch, or exported to ONNX) or an ``.onnx`` file."""
+def load_deployable(
+    policy_path: Path | str, *, onnx: bool = False, workdir: Path | None = None
+) -> tuple[PolicyFn, dict[str, str]]:
+    """``(act, task)`` for a checkpoint/run directory (PyTorch, or exported to ONNX) or an ``.onnx`` file;
+    ``task`` holds the ``hand`` and ``level`` the policy was trained on, for the robot it is evaluated on."""
     path = Path(policy_path)
     if path.suffix == ".onnx":
         runner = OnnxPolicy(path)
-        return runner.act, runner.hand
+        return runner.act, {"hand": runner.hand, "level": runner.level}
     policy = load_policy(path)
+    task = {"hand": policy.config.env.hand, "level": policy.config.env.level}
     if not onnx:
-        return policy.act, policy.config.env.hand
+        return policy.act, task
     if workdir is None:
         raise ValueError("exporting to ONNX for evaluation needs a working folder")
     report = export_policy(policy, out=workdir / "policy.onnx")
-    return OnnxPolicy(report.path).act, policy.config.env.hand
+    return OnnxPolicy(report.path).act, task
 
 
 def evaluate_policy(
@@ -55,7 +58,8 @@ def evaluate_policy(
     if trials < 1 or max_steps < 1:
         raise ValueError(f"trials and max_steps must be >= 1, got {trials} and {max_steps}")
     with tempfile.TemporaryDirectory(prefix="dualsys-eval-") as workdir:
-        act, hand = load_deployable(policy_path, onnx=onnx, workdir=Path(workdir))
-        with SimRobot(domain=domain, hand=hand, camera_shift=camera_shift) as robot:
-            return run_grasp_trials(act, robot, trials=trials, max_steps=max_steps, seed=seed,
-                                    on_trial=on_trial)
+        act, task = load_deployable(policy_path, onnx=onnx, workdir=Path(workdir))
+        with SimRobot(domain=domain, camera_shift=camera_shift, **task) as robot:
+            return run_grasp_trials(
+                act, robot, trials=trials, max_steps=max_steps, seed=seed, on_trial=on_trial
+            )

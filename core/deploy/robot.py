@@ -67,10 +67,21 @@ class Robot(Protocol):
 class SimRobot:
     """:class:`Robot` on the NicoGrasp simulator, seen through the ``"sim"`` or the ``"real"`` camera."""
 
-    def __init__(self, *, domain: str = "sim", hand: str = "auto", camera_shift: CameraShift | None = None,
-                 **env_kwargs: Any) -> None:
-        self.env = NicoGraspEnv(domain=domain, hand=hand, camera_shift=camera_shift,
-                                max_steps=SIM_ROBOT_EPISODE_LIMIT, **env_kwargs)
+    def __init__(
+        self,
+        *,
+        domain: str = "sim",
+        hand: str | None = None,
+        camera_shift: CameraShift | None = None,
+        **env_kwargs: Any,
+    ) -> None:
+        self.env = NicoGraspEnv(
+            domain=domain,
+            hand=hand,
+            camera_shift=camera_shift,
+            max_steps=SIM_ROBOT_EPISODE_LIMIT,
+            **env_kwargs,
+        )
         self.domain = domain
         self._image: np.ndarray | None = None
         self._info: dict[str, Any] = {}
@@ -96,8 +107,9 @@ class SimRobot:
         if self._image is None:
             raise RuntimeError("place_object must be called before execute")
         self._image, _, _, _, self._info = self.env.step(np.asarray(action, dtype=np.float32))
-        return MotorResult(grasp_attempted=bool(self._info["grasp_attempted"]),
-                           toppled=bool(self._info["toppled"]))
+        return MotorResult(
+            grasp_attempted=bool(self._info["grasp_attempted"]), toppled=bool(self._info["toppled"])
+        )
 
     def verify_grasp(self) -> bool:
         return bool(self._info.get("success", False))

@@ -10,6 +10,11 @@ The paper's text and the authors' released code differ in how the hand is used; 
 * ``hand="learned"`` (the paper's text): ``Box(-1, 1, (2,))``; ``action[1] > 0`` closes the hand and makes a
   grasp attempt; success below 0.04 m.
 
+Task levels (`level`, core/envs/levels.py) bundle the geometry and rules that differ between the released code
+(``released``, the default), the paper's text (``paper``) and a level where the camera is necessary and
+exploration is hard (``hard``): shoulder window, start angle, where the glass may stand, admitted hands and
+grasp attempts per episode.
+
 Grasp verification (Section 4.1.2): with the hand closed, the shoulder moves 20° opposite to its last
 movement and the distance between the centres of glass and hand is measured; below the threshold is a
 success (+1, the episode ends). Otherwise the hand opens, the shoulder moves back, the glass is put back where
@@ -45,6 +50,7 @@ from core.envs.camera import (
     apply_sensor_model,
     shifted_pose,
 )
+from core.envs.levels import get_level
 from core.envs.quiet_bullet import quiet_client
 from core.envs.robot_description import FINGER_NAMES, ArmGeometry
 from core.envs.scene_files import scene_file
@@ -80,14 +86,15 @@ class NicoGraspEnv(gym.Env):
     def __init__(
         self,
         reward_mode: str = "dense",
-        hand: str = "auto",
+        hand: str | None = None,
+        level: str = "released",
         dense_shaping: str = "distance",
         fixed_positions: int | None = None,
         max_steps: int = 50,
         domain: str = "sim",
         camera_shift: CameraShift | None = None,
         render_mode: str | None = None,
-        shoulder_window_deg: tuple[float, float] = (33.0, 93.0),
+        shoulder_window_deg: tuple[float, float] | None = None,
         step_deg: float = 20.0,
         grasp_threshold: float | None = None,
         topple_tilt_rad: float = 0.2,
@@ -96,7 +103,13 @@ class NicoGraspEnv(gym.Env):
         physics: PhysicsSettings | None = None,
     ) -> None:
         _check_choice("reward_mode", reward_mode, REWARD_MODES)
+        self.level = get_level(level)
+        hand = self.level.hand if hand is None else hand
         _check_choice("hand", hand, HAND_MODES)
+        if hand not in self.level.hands:
+            raise ValueError(
+                f"level {level!r} admits hand {' or '.join(map(repr, self.level.hands))}, got {hand!r}"
+            )
         _check_choice("dense_shaping", dense_shaping, DENSE_SHAPINGS)
         _check_choice("domain", domain, DOMAINS)
         if render_mode is not None:
@@ -105,6 +118,8 @@ class NicoGraspEnv(gym.Env):
             raise ValueError(f"max_steps must be >= 1, got {max_steps}")
         if fixed_positions is not None and fixed_positions < 1:
             raise ValueError(f"fixed_positions must be None or >= 1, got {fixed_positions}")
+        if shoulder_window_deg is None:
+            shoulder_window_deg = self.level.shoulder_window_deg
         low, high = shoulder_window_deg
         if not -100.0 <= low < high <= 100.0:
             raise ValueError(
@@ -118,6 +133,9 @@ class NicoGraspEnv(gym.Env):
         self.camera_shift = camera_shift if camera_shift is not None else CameraShift()
         self.render_mode = render_mode
         self.window_rad = (math.radians(low), math.radians(high))
+        start = math.radians(low) if self.level.start_deg is None else self.level.start_rad()
+        self.start_rad = float(np.clip(start, *self.window_rad))
+        self.attempts_per_episode = self.level.attempts_per_episode
         self.step_rad = math.radians(step_deg)
         self.grasp_threshold = (
             grasp_threshold if grasp_threshold is not None else (0.03 if hand == "auto" else 0.04)
@@ -147,6 +165,7 @@ class NicoGraspEnv(gym.Env):
         self._noise_rng = np.random.default_rng(self.camera_shift.seed)
         self._grip: int | None = None
         self._steps = 0
+        self._attempts = 0
         self._last_move_sign = 1.0
         self.last_info: dict[str, Any] = {}
 
@@ -186,11 +205,14 @@ class NicoGraspEnv(gym.Env):
 
     @property
     def glass_window_rad(self) -> tuple[float, float]:
-        """Shoulder angles at which the glass may stand: ahead of the open fingertips at the start angle."""
+        """Shoulder angles at which the glass may stand: ahead of the open fingertips at the start angle (and
+        at least the level's `min_glass_offset_deg` from it), up to the end of the window."""
         g = self.geometry
         fingertip = 3 * g.finger_link_length + g.glass_radius + 0.01
         clearance = math.atan2(fingertip, g.reach) - g.hand_centre_lead
-        return self.window_rad[0] + clearance, self.window_rad[1]
+        if self.level.min_glass_offset_deg is not None:
+            clearance = max(clearance, math.radians(self.level.min_glass_offset_deg))
+        return self.start_rad + clearance, self.window_rad[1]
 
     # ------------------------------------------------------------ kinematics
     def _shoulder_angle(self) -> float:
@@ -350,7 +372,7 @@ class NicoGraspEnv(gym.Env):
         if options and "glass_angle_deg" in options:
             angle, jitter = math.radians(float(options["glass_angle_deg"])), 0.0
         self._episode_index += 1
-        start = self.window_rad[0]
+        start = self.start_rad
         if options and "shoulder_deg" in options:
             start = math.radians(float(options["shoulder_deg"]))
         c.resetJointState(self._robot, self._shoulder, start)
@@ -361,6 +383,7 @@ class NicoGraspEnv(gym.Env):
         c.resetBasePositionAndOrientation(self._glass, self._glass_position_for(angle, jitter), (0, 0, 0, 1))
         c.resetBaseVelocity(self._glass, (0, 0, 0), (0, 0, 0))
         self._steps = 0
+        self._attempts = 0
         self._last_move_sign = 1.0
         self.last_info = self._info(success=False, toppled=False, attempted=False)
         return self._observe(), dict(self.last_info)
@@ -382,7 +405,14 @@ class NicoGraspEnv(gym.Env):
                 attempted = bool(action[1] > 0.0)
             if attempted:
                 success, toppled = self._grasp_attempt()
+                self._attempts += 1
         self._steps += 1
+        out_of_attempts = (
+            attempted
+            and not success
+            and self.attempts_per_episode is not None
+            and self._attempts >= self.attempts_per_episode
+        )
         if success:
             reward = 1.0
         elif toppled:
@@ -392,7 +422,7 @@ class NicoGraspEnv(gym.Env):
             reward = -d if self.dense_shaping == "distance" else -(d * d)
         else:
             reward = 0.0
-        terminated = success or toppled
+        terminated = success or toppled or out_of_attempts
         truncated = (not terminated) and self._steps >= self.max_steps
         self.last_info = self._info(success=success, toppled=toppled, attempted=attempted)
         return self._observe(), float(reward), terminated, truncated, dict(self.last_info)
@@ -416,6 +446,7 @@ class NicoGraspEnv(gym.Env):
             "glass_orn": tuple(float(v) for v in orn),
             "grasp_angle_deg": math.degrees(self.grasp_angle()),
             "grasp_attempted": attempted,
+            "grasp_attempts": self._attempts,
         }
 
     # ------------------------------------------------------------ cameras

@@ -10,9 +10,10 @@ from core.envs.nico_grasp import OVERVIEW_POSE, NicoGraspEnv
 PANEL = (512, 256)
 
 
-def scene_picture(seed: int = 0, hand: str = "auto") -> Image.Image:
-    """Render a freshly reset scene: three-quarter view, sim observation, real-camera observation (×8)."""
-    env = NicoGraspEnv(hand=hand)
+def scene_picture(seed: int = 0, hand: str | None = None, level: str = "released") -> Image.Image:
+    """Render a freshly reset scene of `level` (its start pose, a seeded glass position): three-quarter view,
+    sim observation, real-camera observation (×8)."""
+    env = NicoGraspEnv(hand=hand, level=level)
     try:
         env.reset(seed=seed)
         panels = [

@@ -420,6 +420,10 @@ class NicoGraspEnv(gym.Env):
         elif self.reward_mode == "dense":
             d = self._distance()
             reward = -d if self.dense_shaping == "distance" else -(d * d)
+            if out_of_attempts:
+                # The episode ends early, but the shaping is charged for the steps it would have had, as if
+                # the hand stayed where it closed: otherwise closing at once would be the cheapest way out.
+                reward *= self.max_steps - self._steps + 1
         else:
             reward = 0.0
         terminated = success or toppled or out_of_attempts

@@ -112,6 +112,17 @@ def test_hard_allows_one_grasp_attempt_without_a_penalty():
         env.close()
 
 
+def test_hard_dense_charges_the_shaping_for_the_steps_a_failed_attempt_cuts_off():
+    env = NicoGraspEnv(level="hard", reward_mode="dense")
+    try:
+        env.reset(seed=0)
+        _, reward, terminated, _, info = env.step(np.array([0.0, 1.0], dtype=np.float32))
+        assert terminated and not info["success"]
+        assert reward == pytest.approx(-info["distance"] * env.max_steps)
+    finally:
+        env.close()
+
+
 def test_paper_level_lets_a_failed_attempt_go_on():
     env = NicoGraspEnv(level="paper", reward_mode="sparse")
     try:

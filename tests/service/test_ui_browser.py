@@ -1,0 +1,199 @@
+"""The dashboard in a real headless Chromium (Debian's chromium + chromium-driver, Selenium) against a
+real service with running `probe` jobs: the jobs table's progress moves without a reload, the job
+page's learning curve gains points live, cancel is refused without the token and works with it, and
+a `<script>` in a tag or a job spec renders as text. Assertions are on the DOM; each test saves
+screenshots into its tmp folder. Skips with the reason when no browser is installed here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.utils.browser import browser_or_skip, console_errors
+from tests.utils.jobs import job, submit, wait_progress, wait_status
+from tests.utils.live_service import LiveService, wait_for
+from tests.utils.registered import register_version
+
+pytestmark = pytest.mark.timeout(240)
+# a refused REST call is logged by Chromium as a failed resource load; that is the test's point
+REFUSED = ("status of 401",)
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Any]:
+    driver, profile = browser_or_skip()
+    try:
+        yield driver
+    finally:
+        driver.quit()
+        import shutil
+
+        shutil.rmtree(profile, ignore_errors=True)
+
+
+@pytest.fixture()
+def page(browser: Any, tmp_path: Path) -> Iterator[Callable[[str], None]]:
+    """Screenshot helper bound to the test's tmp folder; checks the console stayed clean."""
+    browser.get("about:blank")
+    console_errors(browser)  # drop what earlier tests left
+
+    def shot(name: str) -> None:
+        browser.save_screenshot(str(tmp_path / f"{name}.png"))
+
+    yield shot
+    browser.get("about:blank")  # stop the page's polling before the test's service goes away
+
+
+def _text(browser: Any, selector: str) -> str:
+    return browser.find_element("css selector", selector).text
+
+
+def _attr(browser: Any, selector: str, name: str) -> str:
+    return browser.find_element("css selector", selector).get_attribute(name) or ""
+
+
+def test_jobs_table_progress_moves_without_reload(
+    browser: Any, page: Callable[[str], None], start_service: Callable[..., LiveService]
+) -> None:
+    service = start_service()
+    with service.client() as client:
+        running = submit(client, "probe", episodes=400, interval_s=0.25)
+        wait_progress(client, running["id"], 1)
+        browser.get(f"{service.url}/")  # redirects to /ui
+        assert browser.current_url.endswith("/ui")
+        browser.execute_script("window.__samePage = true")
+        row = f'tr[data-job-id="{running["id"]}"] td.progress'
+        start = int(_attr(browser, row, "data-episode"))
+        page("jobs-before")
+        moved = wait_for(
+            lambda: int(_attr(browser, row, "data-episode")) >= start + 3,
+            timeout=60,
+            what="the row's progress to move",
+        )
+        assert moved
+        assert browser.execute_script("return window.__samePage === true"), "the page was reloaded"
+        episode = int(_attr(browser, row, "data-episode"))
+        assert _text(browser, row).endswith(f"{episode} / 400")
+        assert _text(browser, f'tr[data-job-id="{running["id"]}"] .status') == "running"
+        assert _text(browser, "#live-state") == "live"
+        # a job submitted now appears at the top without a reload
+        newer = submit(client, "probe", episodes=2, interval_s=0)
+        wait_for(
+            lambda: _attr(browser, "#jobs-body tr", "data-job-id") == str(newer["id"]),
+            timeout=30,
+            what="the new job's row",
+        )
+        page("jobs-after")
+        assert client.post(f"/jobs/{running['id']}/cancel").status_code == 202
+    assert console_errors(browser) == []
+
+
+def test_job_page_curve_grows_live_then_cancel_needs_the_token(
+    browser: Any, page: Callable[[str], None], start_service: Callable[..., LiveService]
+) -> None:
+    service = start_service()
+    with service.client() as client:
+        running = submit(client, "probe", episodes=400, interval_s=0.25)
+        wait_progress(client, running["id"], 2)
+        browser.get(f"{service.url}/ui/jobs/{running['id']}")
+        points = wait_for(
+            lambda: int(_attr(browser, "#curve", "data-points")), timeout=30, what="the first curve points"
+        )
+        assert browser.find_elements("css selector", "#curve svg path.line.ret")
+        page("job-early")
+        grown = wait_for(
+            lambda: int(_attr(browser, "#curve", "data-points")) >= points + 4,
+            timeout=60,
+            what="the curve to gain points",
+        )
+        assert grown
+        shown = int(_attr(browser, "#curve", "data-points"))
+        recorded = job(client, running["id"])["progress"]["episode"]
+        assert 0 < shown <= recorded  # what the browser drew is what the service recorded
+        assert "episodes" in _text(browser, "#curve-count")
+        # probe records no dual/ keys: the panel says so rather than drawing empty axes
+        assert "no dual-system diagnostics" in _text(browser, "#diagnostics")
+
+        # cancel without a token: the REST API's refusal, shown as it is; the job keeps running
+        browser.find_element("id", "cancel-button").click()
+        wait_for(lambda: "HTTP 401" in _text(browser, "#cancel-result"), timeout=20, what="the refusal")
+        assert "missing or invalid bearer token" in _text(browser, "#cancel-result")
+        page("job-cancel-refused")
+        assert job(client, running["id"])["status"] == "running"
+        # a wrong token is refused the same way
+        browser.find_element("id", "token").send_keys("not-the-token")
+        browser.find_element("id", "cancel-button").click()
+        wait_for(
+            lambda: (
+                "HTTP 401" in _text(browser, "#cancel-result") and "…" not in _text(browser, "#cancel-result")
+            ),
+            timeout=20,
+            what="the second refusal",
+        )
+        assert job(client, running["id"])["status"] == "running"
+        # the right token: cancelled, and the page follows the job to its end
+        token = browser.find_element("id", "token")
+        token.clear()
+        token.send_keys(service.token)
+        browser.find_element("id", "cancel-button").click()
+        wait_for(
+            lambda: "cancel requested" in _text(browser, "#cancel-result"), timeout=20, what="the cancel"
+        )
+        wait_status(client, running["id"], {"cancelled"}, timeout=60)
+        wait_for(lambda: _text(browser, "#job-status") == "cancelled", timeout=30, what="the page's status")
+        assert not browser.find_element("id", "cancel-box").is_displayed()
+        wait_for(
+            lambda: "checkpoints/latest.json" in _text(browser, "#artifacts"), timeout=30, what="artifacts"
+        )
+        link = browser.find_element("css selector", "#artifacts a")
+        assert link.get_attribute("href").startswith(f"{service.url}/jobs/{running['id']}/artifacts/")
+        page("job-cancelled")
+    assert console_errors(browser, allow=REFUSED) == []
+
+
+def test_script_in_a_tag_or_spec_renders_as_text(
+    browser: Any, page: Callable[[str], None], start_service: Callable[..., LiveService]
+) -> None:
+    service = start_service(run_jobs="false")
+    payload = '<img src=x onerror="window.__xss=1"><script>window.__xss=2</script>'
+    with service.client() as client:
+        register_version(service, "grasp", tags={"algo": "i2a"})
+        pairs_dir = service.folder / f"pairs-{payload}"
+        pairs_dir.mkdir(parents=True)
+        aligned = submit(client, "align", policy="grasp@1", pairs_dir=str(pairs_dir))
+
+    # set the tag through the page's own form: without the token it is refused, with it stored
+    browser.get(f"{service.url}/ui/policies/grasp")
+    form = browser.find_element("id", "tag-form")
+    form.find_element("name", "key").send_keys("note")
+    form.find_element("name", "value").send_keys(payload)
+    form.find_element("css selector", "button[type=submit]").click()
+    wait_for(
+        lambda: "HTTP 401" in form.find_element("css selector", ".result").text, timeout=20, what="refusal"
+    )
+    browser.find_element("id", "token").send_keys(service.token)
+    form.find_element("css selector", "button[type=submit]").click()
+    wait_for(
+        lambda: (
+            browser.find_elements("css selector", "#v1 .chip.tag .v")
+            and any(e.text == payload for e in browser.find_elements("css selector", "#v1 .chip.tag .v"))
+        ),
+        timeout=30,
+        what="the reloaded page with the tag",
+    )
+    page("policy-xss")
+    assert browser.execute_script("return window.__xss === undefined")
+    assert browser.find_elements("css selector", "#v1 td.tags img") == []
+    assert browser.find_elements("css selector", "#v1 td.tags script") == []
+
+    browser.get(f"{service.url}/ui/jobs/{aligned['id']}")
+    cells = [e.text for e in browser.find_elements("css selector", "table.kv td")]
+    assert any(payload in text for text in cells)
+    assert browser.execute_script("return window.__xss === undefined")
+    assert browser.find_elements("css selector", "main img") == []
+    page("job-xss")
+    assert console_errors(browser, allow=REFUSED) == []

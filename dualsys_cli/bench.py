@@ -108,3 +108,17 @@ def bench_service(
             seconds=seconds, clients=clients, api_processes=counts, jobs_in_table=jobs_in_table
         )
     _emit(result, as_json)
+
+
+@app.command("dashboard")
+def bench_dashboard(
+    loads: int = typer.Option(20, min=1, help="Timed loads per page (p50/p90 reported)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
+) -> None:
+    """The web dashboard's jobs page with 1 000 jobs: server render time (goal p50 < 100 ms) and first-load
+    bytes (goal < 500 kB)."""
+    from bench.dashboard_speed import measure
+
+    with user_errors():
+        result = measure(loads=loads)
+    _emit(result, as_json)

@@ -110,6 +110,15 @@
     return ticks;
   }
 
+  function niceRange(range, count) {
+    // widen [lo, hi] to the tick steps around it, so the axis starts and ends on a labelled value
+    const ticks = niceTicks(range[0], range[1], count);
+    const step = ticks.length > 1 ? ticks[1] - ticks[0] : 1;
+    const lo = ticks[0] > range[0] ? ticks[0] - step : ticks[0];
+    const hi = ticks[ticks.length - 1] < range[1] ? ticks[ticks.length - 1] + step : ticks[ticks.length - 1];
+    return [+lo.toPrecision(12), +hi.toPrecision(12)];
+  }
+
   function fmt(value) {
     const a = Math.abs(value);
     if (a >= 1e6) return (value / 1e6).toPrecision(3).replace(/\.?0+$/, "") + "M";
@@ -149,8 +158,8 @@
     const scales = {};
     ["left", "right"].forEach(function (side) {
       if (!spec[side]) return;
-      const r = spec[side].range || extent(spec.series.filter(function (s) { return s.axis === side; })
-        .map(function (s) { return s.ys; }), [0, 1]);
+      const r = spec[side].range || niceRange(extent(spec.series.filter(function (s) { return s.axis === side; })
+        .map(function (s) { return s.ys; }), [0, 1]), Math.max(2, Math.floor(ih / 40)));
       scales[side] = { r: r, f: function (v) { return m.top + ih - ((v - r[0]) / (r[1] - r[0])) * ih; } };
     });
     const grid = el("g", { class: "grid" });

@@ -1,0 +1,118 @@
+"""Figures of an experiment report (matplotlib, Agg backend, written atomically).
+
+* ``learning_curves.png`` — one panel per reward mode, each method's mean smoothed episodic reward over
+  env steps with a ± one-standard-deviation band (the style of the paper's Fig. 8, 10 and 11).
+* ``scores.png`` — per reward mode (rows) and score (columns), each method's IQM with its 95% CI
+  (the interval plot rliable recommends).
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from core.run_dir import atomic_write_bytes
+
+if TYPE_CHECKING:
+    from core.experiments.spec import ExperimentSpec
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib import pyplot as plt
+
+    return plt
+
+
+def _save(figure: Any, path: Path) -> None:
+    plt = _pyplot()
+    buffer = io.BytesIO()
+    figure.tight_layout()
+    figure.savefig(buffer, format="png")
+    plt.close(figure)
+    atomic_write_bytes(path, buffer.getvalue())
+
+
+def _colours(labels: list[str]) -> dict[str, Any]:
+    plt = _pyplot()
+    cycle = plt.get_cmap("tab10")
+    return {label: cycle(index % 10) for index, label in enumerate(labels)}
+
+
+def plot_learning_curves(
+    spec: ExperimentSpec, curves: dict[str, dict[str, dict[str, np.ndarray]]], path: Path
+) -> None:
+    """Mean ± std learning curves, one panel per reward mode (``report.learning_curves`` output)."""
+    plt = _pyplot()
+    labels = [m.label for m in spec.methods]
+    colours = _colours(labels)
+    panels = len(spec.rewards)
+    figure, axes = plt.subplots(1, panels, figsize=(6.0 * panels, 4.2), dpi=100, squeeze=False)
+    for index, (axis, reward) in enumerate(zip(axes[0], spec.rewards, strict=True)):
+        for label in labels:
+            curve = curves.get(reward, {}).get(label)
+            if curve is None:
+                continue
+            seeds = int(np.max(curve["n"])) if curve["n"].size else 0
+            axis.plot(
+                curve["steps"],
+                curve["mean"],
+                color=colours[label],
+                linewidth=1.8,
+                label=f"{label} ({seeds} seeds)",
+            )
+            axis.fill_between(
+                curve["steps"],
+                curve["mean"] - curve["std"],
+                curve["mean"] + curve["std"],
+                color=colours[label],
+                alpha=0.2,
+                linewidth=0,
+            )
+        axis.set_title(f"({chr(ord('a') + index)}) {reward} reward")
+        axis.set_xlabel("environment steps")
+        axis.set_ylabel("episodic reward (smoothed)")
+        axis.set_xlim(0, spec.steps)
+        axis.grid(alpha=0.3)
+        if axis.get_legend_handles_labels()[0]:
+            axis.legend(fontsize=8, loc="lower right")
+    figure.suptitle(f"{spec.name}: mean over seeds, band ± 1 std", fontsize=11)
+    _save(figure, path)
+
+
+def plot_scores(report: dict[str, Any], labels: list[str], path: Path) -> None:
+    """IQM with 95% CI per method: rows are reward modes, columns AuC, Final Perf and greedy success."""
+    plt = _pyplot()
+    metrics = {"auc": "AuC", "final_perf": "Final Perf", "success": "Greedy success"}
+    rewards = list(report["rewards"])
+    colours = _colours(labels)
+    figure, axes = plt.subplots(
+        len(rewards),
+        len(metrics),
+        figsize=(3.6 * len(metrics), 0.45 * len(labels) * len(rewards) + 1.6),
+        dpi=100,
+        squeeze=False,
+    )
+    for row, reward in enumerate(rewards):
+        for column, (metric, name) in enumerate(metrics.items()):
+            axis = axes[row][column]
+            for position, label in enumerate(labels):
+                summary = report["methods"][label][reward][metric]
+                if summary.get("iqm") is None:
+                    continue
+                low, high = summary["ci"]
+                axis.plot([low, high], [position, position], color=colours[label], linewidth=6, alpha=0.5)
+                axis.plot([summary["iqm"]], [position], "|", color="black", markersize=14)
+            axis.set_yticks(range(len(labels)))
+            axis.set_yticklabels(labels if column == 0 else [""] * len(labels))
+            axis.set_ylim(-0.7, len(labels) - 0.3)
+            axis.invert_yaxis()
+            axis.grid(axis="x", alpha=0.3)
+            axis.set_title(f"{name} · {reward}", fontsize=10)
+    figure.suptitle(f"{report['experiment']}: IQM and 95% bootstrap CI over seeds", fontsize=11)
+    _save(figure, path)

@@ -1,0 +1,383 @@
+"""The experiment report: per method and reward mode, the paper's scores with rliable statistics.
+
+Scores of one finished cell, from its run directory:
+
+* ``auc`` — Area under Curve of Section 4.1.2 on the cell's episodic rewards (metrics.csv,
+  ``core.metrics.area_under_curve``, baseline 0 as the text defines it); ``auc_from_minus1`` — the same
+  area measured from reward −1, the reading that fits the paper's Table 1 (see ``core.metrics``);
+* ``final_perf`` — Final Performance: mean episodic reward of the last 500 training episodes;
+* ``success`` — the final greedy evaluation's success rate (summary.json ``success_rate``).
+
+Per (method, reward mode) over seeds: IQM with a 95% stratified-bootstrap CI, mean ± std
+(``core.experiments.statistics``), and each method's probability of improvement over its model-free
+baseline (the file's ``baseline``, else the ddpg/cacla method with the same actor update, else the first
+ddpg/cacla method). Only finished cells count; the others are listed as missing.
+
+``build_report(dir)`` returns the numbers as one JSON-ready dict; ``write_report(dir)`` also writes
+``report.md``, ``learning_curves.png`` (Fig. 8/10/11 style) and ``scores.png`` into the experiment folder.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from core.experiments.cells import EXPERIMENT_FILE, cell_dir, cell_state, read_summary
+from core.experiments.spec import ExperimentError, ExperimentSpec, load_experiment
+from core.metrics import area_under_curve, final_performance, smooth
+from core.run_dir import atomic_write_text
+
+METRICS: dict[str, str] = {
+    "auc": "AuC",
+    "auc_from_minus1": "AuC (from −1)",
+    "final_perf": "Final Perf",
+    "success": "Greedy success",
+}
+"""Reported scores and their table names."""
+BOOTSTRAPPED = ("auc", "final_perf", "success")
+"""Scores with their own bootstrap (``auc_from_minus1`` is an affine map of ``auc``)."""
+
+MODEL_FREE = ("ddpg", "cacla")
+CURVE_POINTS = 200
+"""Points of the common env-step grid the learning curves are interpolated to."""
+
+
+@dataclass
+class CellRecord:
+    """One finished cell's curve and scores."""
+
+    label: str
+    reward: str
+    seed: int
+    ac: str
+    steps: np.ndarray
+    """Env step at the end of each training episode."""
+    returns: np.ndarray
+    """Episodic reward of each training episode."""
+    scores: dict[str, float]
+
+
+def find_experiment_dir(directory: Path | str) -> Path:
+    """``directory`` itself if it holds experiment.yaml, else its only sub-folder that does."""
+    root = Path(directory)
+    if (root / EXPERIMENT_FILE).is_file():
+        return root
+    candidates = sorted(p.parent for p in root.glob(f"*/{EXPERIMENT_FILE}")) if root.is_dir() else []
+    if len(candidates) == 1:
+        return candidates[0]
+    if not root.is_dir():
+        raise ExperimentError(f"experiment directory not found: {root}")
+    if candidates:
+        names = ", ".join(str(c) for c in candidates)
+        raise ExperimentError(f"{root} holds several experiments; pass one of: {names}")
+    raise ExperimentError(f"{root} holds no {EXPERIMENT_FILE} (pass OUT/<experiment>)")
+
+
+def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord | None:
+    """The scores and curve of a finished cell (None if it is not finished)."""
+    if cell_state(run_dir) != "done":
+        return None
+    summary = read_summary(run_dir) or {}
+    steps: list[float] = []
+    returns: list[float] = []
+    with (run_dir / "metrics.csv").open(newline="") as file:
+        for row in csv.DictReader(file):
+            steps.append(float(row["global_step"]))
+            returns.append(float(row["charts/episodic_return"]))
+    success = summary.get("success_rate")
+    return CellRecord(
+        label=label,
+        reward=reward,
+        seed=seed,
+        ac=str(summary.get("ac") or "ddpg"),
+        steps=np.asarray(steps),
+        returns=np.asarray(returns),
+        scores={
+            "auc": area_under_curve(returns),
+            "auc_from_minus1": area_under_curve(returns, baseline=-1.0),
+            "final_perf": final_performance(returns),
+            "success": math.nan if success is None else float(success),
+        },
+    )
+
+
+def collect(directory: Path | str) -> tuple[ExperimentSpec, Path, list[CellRecord], list[str]]:
+    """The experiment's spec, folder, finished cells and the keys of the missing ones."""
+    root = find_experiment_dir(directory)
+    spec = load_experiment(root / EXPERIMENT_FILE, resolve=False)
+    records: list[CellRecord] = []
+    missing: list[str] = []
+    for method in spec.methods:
+        for reward in spec.rewards:
+            for seed in spec.seeds:
+                record = read_cell(cell_dir(root, method.label, reward, seed), method.label, reward, seed)
+                if record is None:
+                    missing.append(f"{method.label}/{reward}/seed-{seed}")
+                else:
+                    records.append(record)
+    return spec, root, records, missing
+
+
+def baselines(spec: ExperimentSpec, records: list[CellRecord]) -> dict[str, str | None]:
+    """Each method's model-free baseline label (None for the baselines themselves)."""
+    model_free = [m for m in spec.methods if m.algo in MODEL_FREE]
+    out: dict[str, str | None] = {}
+    for method in spec.methods:
+        if spec.baseline is not None:
+            out[method.label] = None if method.label == spec.baseline else spec.baseline
+            continue
+        if method.algo in MODEL_FREE or not model_free:
+            out[method.label] = None
+            continue
+        ac = method.ac or next((r.ac for r in records if r.label == method.label), "ddpg")
+        same_rule = [m for m in model_free if m.algo == ac]
+        out[method.label] = (same_rule or model_free)[0].label
+    return out
+
+
+def build_report(directory: Path | str, *, reps: int | None = None) -> dict[str, Any]:
+    """The report's numbers (see the module docstring) as one JSON-ready dict::
+
+    {"experiment", "directory", "cells", "done", "missing": [keys], "steps", "rewards", "seeds",
+     "methods": {label: {reward: {"auc": {"iqm", "ci": [lo, hi], "mean", "std", "n"}, "auc_from_minus1",
+                                  "final_perf", "success", "seeds", "baseline",
+                                  "prob_improvement": {metric: {"p", "ci"}}}}}}
+    """
+    from core.experiments.statistics import (
+        BOOTSTRAP_REPS,
+        affine_summary,
+        probability_of_improvement,
+        score_summary,
+    )
+
+    reps = reps or BOOTSTRAP_REPS
+    spec, root, records, missing = collect(directory)
+    baseline_of = baselines(spec, records)
+
+    def scores(label: str, reward: str, metric: str) -> list[float]:
+        return [r.scores[metric] for r in records if r.label == label and r.reward == reward]
+
+    methods: dict[str, dict[str, Any]] = {}
+    for method in spec.methods:
+        per_reward: dict[str, Any] = {}
+        for reward in spec.rewards:
+            entry: dict[str, Any] = {
+                metric: score_summary(scores(method.label, reward, metric), reps=reps)
+                for metric in BOOTSTRAPPED
+            }
+            # AuC from −1 is (AuC + 1) / 2 per cell: its statistics follow without a second bootstrap.
+            entry["auc_from_minus1"] = affine_summary(entry["auc"], 0.5, 0.5)
+            entry["seeds"] = sum(1 for r in records if r.label == method.label and r.reward == reward)
+            baseline = baseline_of[method.label]
+            entry["baseline"] = baseline
+            if baseline is not None:
+                entry["prob_improvement"] = {
+                    metric: probability_of_improvement(
+                        scores(method.label, reward, metric), scores(baseline, reward, metric), reps=reps
+                    )
+                    for metric in BOOTSTRAPPED
+                }
+                entry["prob_improvement"]["auc_from_minus1"] = entry["prob_improvement"]["auc"]
+            per_reward[reward] = entry
+        methods[method.label] = per_reward
+    total = len(spec.methods) * len(spec.rewards) * len(spec.seeds)
+    return {
+        "experiment": spec.name,
+        "directory": str(root),
+        "cells": total,
+        "done": total - len(missing),
+        "missing": missing,
+        "steps": spec.steps,
+        "rewards": list(spec.rewards),
+        "seeds": list(spec.seeds),
+        "level": spec.level,
+        "profile": spec.profile,
+        "methods": methods,
+    }
+
+
+def learning_curves(
+    spec: ExperimentSpec, records: list[CellRecord], points: int = CURVE_POINTS
+) -> dict[str, dict[str, dict[str, np.ndarray]]]:
+    """Per reward mode and method: ``{"steps", "mean", "std", "n"}`` on a common env-step grid.
+
+    Each cell's episodic rewards are smoothed with the reward mode's sliding window (Fig. 8: 250 episodes
+    dense, 375 sparse; ``smoothing`` in the file), placed at the env step where each episode ended and
+    linearly interpolated to the grid; a seed contributes only between its first and last episode.
+    """
+    grid = np.linspace(0.0, float(spec.steps), points + 1)[1:]
+    curves: dict[str, dict[str, dict[str, np.ndarray]]] = {}
+    for reward in spec.rewards:
+        window = int(spec.smoothing.get(reward, 250))
+        curves[reward] = {}
+        for method in spec.methods:
+            rows = []
+            for record in records:
+                if record.label != method.label or record.reward != reward or record.steps.size == 0:
+                    continue
+                smoothed = smooth(record.returns, window)
+                values = np.interp(grid, record.steps, smoothed)
+                values[(grid < record.steps[0]) | (grid > record.steps[-1])] = np.nan
+                rows.append(values)
+            if not rows:
+                continue
+            stack = np.vstack(rows)
+            counts = np.isfinite(stack).sum(axis=0)
+            with np.errstate(invalid="ignore"):
+                mean = np.where(counts > 0, np.nansum(stack, axis=0) / np.maximum(counts, 1), np.nan)
+                deviation = np.sqrt(
+                    np.where(
+                        counts > 0,
+                        np.nansum((stack - mean) ** 2, axis=0) / np.maximum(counts, 1),
+                        np.nan,
+                    )
+                )
+            curves[reward][method.label] = {"steps": grid, "mean": mean, "std": deviation, "n": counts}
+    return curves
+
+
+def write_report(directory: Path | str, *, reps: int | None = None) -> dict[str, Any]:
+    """Write report.md, learning_curves.png and scores.png into the experiment folder; returns the numbers
+    (:func:`build_report`) with ``"files"`` added."""
+    from core.experiments.figures import plot_learning_curves, plot_scores
+
+    report = build_report(directory, reps=reps)
+    spec, root, records, _ = collect(directory)
+    curves = learning_curves(spec, records)
+    files = {
+        "report": root / "report.md",
+        "learning_curves": root / "learning_curves.png",
+        "scores": root / "scores.png",
+    }
+    plot_learning_curves(spec, curves, files["learning_curves"])
+    plot_scores(report, [m.label for m in spec.methods], files["scores"])
+    atomic_write_text(files["report"], render_markdown(spec, report))
+    atomic_write_text(root / "report.json", json.dumps(report, indent=2) + "\n")
+    report["files"] = {name: str(path) for name, path in files.items()}
+    return report
+
+
+# -- markdown ------------------------------------------------------------------------------------------
+
+
+def _number(value: float | None, digits: int = 3) -> str:
+    return "–" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+
+
+def _iqm_cell(summary: dict[str, Any], bold: bool) -> str:
+    if summary.get("iqm") is None:
+        return "–"
+    low, high = summary["ci"]
+    text = f"{_number(summary['iqm'])} [{_number(low)}, {_number(high)}]"
+    return f"**{text}**" if bold else text
+
+
+def _mean_cell(summary: dict[str, Any]) -> str:
+    if summary.get("mean") is None:
+        return "–"
+    return f"{_number(summary['mean'])} ± {_number(summary['std'])}"
+
+
+def _p_cell(entry: dict[str, Any] | None) -> str:
+    if not entry or entry.get("p") is None:
+        return "–"
+    low, high = entry["ci"]
+    return f"{entry['p']:.2f} [{low:.2f}, {high:.2f}]"
+
+
+def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
+    """report.md: a Table 1-style table, probabilities of improvement, figures and definitions."""
+    labels = [m.label for m in spec.methods]
+    lines = [f"# Experiment `{spec.name}`", ""]
+    if spec.description:
+        lines += [spec.description, ""]
+    lines += [
+        f"{report['done']} of {report['cells']} cells finished · {len(spec.methods)} methods × "
+        f"{len(spec.rewards)} reward modes × {len(spec.seeds)} seeds · {spec.steps:,} env steps per cell · "
+        f"level `{spec.level}` · profile `{spec.profile}`.",
+        "",
+    ]
+    if report["missing"]:
+        lines += [
+            f"**Missing cells ({len(report['missing'])})** — not finished, left out of every statistic: "
+            + ", ".join(f"`{key}`" for key in report["missing"]),
+            "",
+        ]
+    lines += [
+        "## Summary (Table 1 style)",
+        "",
+        "IQM over seeds with its 95% stratified-bootstrap CI, and mean ± std (the paper's form). "
+        "Bold: the highest IQM of the row.",
+        "",
+        "| | " + " | ".join(labels) + " |",
+        "|---|" + "---|" * len(labels),
+    ]
+    for reward in spec.rewards:
+        lines.append(f"| **{reward.capitalize()} reward** |" + " |" * len(labels))
+        for metric, name in METRICS.items():
+            cells = [report["methods"][label][reward][metric] for label in labels]
+            finite = [c["iqm"] for c in cells if c.get("iqm") is not None]
+            best = max(finite) if len(finite) > 1 else None
+            lines.append(
+                f"| {name} IQM [95% CI] | "
+                + " | ".join(_iqm_cell(c, best is not None and c.get("iqm") == best) for c in cells)
+                + " |"
+            )
+            lines.append(f"| {name} mean ± std | " + " | ".join(_mean_cell(c) for c in cells) + " |")
+        seeds = [str(report["methods"][label][reward]["seeds"]) for label in labels]
+        lines.append("| seeds | " + " | ".join(seeds) + " |")
+    compared = [
+        (label, reward)
+        for label in labels
+        for reward in spec.rewards
+        if report["methods"][label][reward].get("baseline") is not None
+    ]
+    if compared:
+        lines += [
+            "",
+            "## Probability of improvement over the model-free baseline",
+            "",
+            "P(X > Y): the chance that a run of the method scores higher than a run of its baseline "
+            "(Mann-Whitney U / (n·m)), with its 95% bootstrap CI; 0.5 means no difference.",
+            "",
+            "| method | reward | baseline | " + " | ".join(METRICS.values()) + " |",
+            "|---|---|---|" + "---|" * len(METRICS),
+        ]
+        for label, reward in compared:
+            entry = report["methods"][label][reward]
+            lines.append(
+                f"| {label} | {reward} | {entry['baseline']} | "
+                + " | ".join(_p_cell(entry["prob_improvement"].get(metric)) for metric in METRICS)
+                + " |"
+            )
+    windows = ", ".join(f"{spec.smoothing.get(r, 250)} episodes ({r})" for r in spec.rewards)
+    lines += [
+        "",
+        "## Learning curves",
+        "",
+        "![learning curves](learning_curves.png)",
+        "",
+        f"Episodic reward smoothed with a sliding window of {windows}, interpolated to a common grid of "
+        "env steps; line: mean over seeds, band: ± one standard deviation (as Fig. 8/10/11).",
+        "",
+        "![scores](scores.png)",
+        "",
+        "## Definitions",
+        "",
+        "- **AuC** (Section 4.1.2): area under the episodic-reward curve over the area under reward 1, "
+        "mean(R) (baseline 0, the paper's text); **AuC (from −1)**: (mean(R) + 1) / 2, the reading that "
+        "fits the paper's Table 1 (docs in `core/metrics.py`).",
+        "- **Final Perf**: mean episodic reward over the last 500 training episodes.",
+        "- **Greedy success**: success rate of the final greedy evaluation "
+        f"({spec.eval_episodes} episodes, fixed evaluation positions).",
+        "- **IQM**: interquartile mean over seeds (25% trimmed mean); CIs: percentile bootstrap over seeds "
+        "(rliable, stratified by task; one task per reward mode), fixed seed.",
+        "",
+    ]
+    return "\n".join(lines)

@@ -1,0 +1,179 @@
+"""Method → cell runner dispatch: which code trains a cell of a given ``algo``.
+
+A cell runner turns (experiment, method, reward, seed) into a resolved config (a plain nested dict, stored
+as the cell's ``config.yaml``) and trains it into a run directory, resuming from ``checkpoints/latest.pt``
+when asked. Every method registered in ``core.algos`` runs through :data:`TRAINER_RUNNER` (the shared
+``core.trainer.train`` loop). Another algorithm family — say a Stable-Baselines3 baseline under
+``algo: sb3-sac`` — plugs in with :func:`register_cell_runner` from a module listed in
+:data:`RUNNER_PLUGINS`, without touching the experiment runner.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+from core.config import ConfigError
+
+if TYPE_CHECKING:
+    from core.experiments.spec import ExperimentSpec, MethodSpec
+
+EpisodeCallback = Callable[[dict[str, Any]], None]
+
+IGNORED_FOR_COMPARISON: frozenset[str] = frozenset(
+    {"run.device", "run.num_threads", "run.checkpoint_every", "run.checkpoint_every_s"}
+)
+"""Resolved-config keys that do not change a cell's results, so a rerun may change them freely."""
+
+
+class CellRunner(Protocol):
+    """What the experiment runner needs from an algorithm family."""
+
+    def resolve(self, spec: ExperimentSpec, method: MethodSpec, reward: str, seed: int) -> dict[str, Any]:
+        """The cell's full resolved config as a nested dict; raises ConfigError naming a bad key."""
+        ...
+
+    def normalise(self, stored: Mapping[str, Any]) -> dict[str, Any]:
+        """A stored config.yaml brought to the current schema (defaults for keys added since)."""
+        ...
+
+    def train(
+        self,
+        config: Mapping[str, Any],
+        run_dir: Path,
+        *,
+        resume: bool,
+        should_stop: Callable[[], bool] | None,
+        on_episode: EpisodeCallback | None,
+        command: str,
+    ) -> dict[str, Any]:
+        """Train (or resume) the cell into ``run_dir``; returns the summary written to summary.json."""
+        ...
+
+
+class TrainerRunner:
+    """Cells of the methods in ``core.algos``: ``core.config`` + ``core.trainer.train``."""
+
+    def resolve(self, spec: ExperimentSpec, method: MethodSpec, reward: str, seed: int) -> dict[str, Any]:
+        from core.algos import resolve_algo
+        from core.config import check_config, load_config
+        from core.experiments.spec import ExperimentError
+
+        items = [f"{key}={_raw(value)}" for key, value in {**spec.overrides, **method.overrides}.items()]
+        cell_keys = {
+            "run.algo": method.algo,
+            "run.seed": seed,
+            "run.steps": spec.steps,
+            "run.episodes": "none",
+            "run.max_wall_s": "none",
+            "run.eval_every": spec.eval_every,
+            "run.eval_episodes": spec.eval_episodes,
+            "run.num_threads": 1,
+            "env.reward_mode": reward,
+        }
+        if _has_env_level():
+            cell_keys["env.level"] = spec.level
+        elif spec.level != "released":
+            raise ExperimentError(
+                f"bad value for level: {spec.level!r} needs env.level, absent in core.config"
+            )
+        if method.ac is not None:
+            cell_keys["agent.ac"] = method.ac
+        items += [f"{key}={_raw(value)}" for key, value in cell_keys.items()]
+        try:
+            config = resolve_algo(load_config(spec.profile, items))
+            if method.ac is not None and config.agent.ac != method.ac:
+                raise ConfigError(
+                    f"bad value for ac: {method.algo} always uses the {config.agent.ac} actor update"
+                )
+            check_config(config)
+        except ConfigError as exc:
+            raise ExperimentError(f"method {method.label!r}, {reward} reward: {exc}") from None
+        return config.to_dict()
+
+    def normalise(self, stored: Mapping[str, Any]) -> dict[str, Any]:
+        from core.config import Config
+
+        return Config.from_dict(stored).to_dict()
+
+    def train(
+        self,
+        config: Mapping[str, Any],
+        run_dir: Path,
+        *,
+        resume: bool,
+        should_stop: Callable[[], bool] | None,
+        on_episode: EpisodeCallback | None,
+        command: str,
+    ) -> dict[str, Any]:
+        from core.config import Config
+        from core.trainer import train
+
+        return train(
+            Config.from_dict(config),
+            run_dir,
+            resume=resume,
+            on_episode=on_episode,
+            should_stop=should_stop,
+            command=command,
+        )
+
+
+def _raw(value: Any) -> str:
+    """A YAML value as the text of a ``--set key=value`` override."""
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, list | tuple):
+        return ",".join(str(item) for item in value)
+    return str(value)
+
+
+def _has_env_level() -> bool:
+    import dataclasses
+
+    from core.config import EnvConfig
+
+    return any(item.name == "level" for item in dataclasses.fields(EnvConfig))
+
+
+TRAINER_RUNNER = TrainerRunner()
+
+CELL_RUNNERS: dict[str, CellRunner] = {}
+"""Runners registered for algo names outside ``core.algos`` (e.g. ``sb3-sac``)."""
+
+RUNNER_PLUGINS: tuple[str, ...] = ()
+"""Modules that call :func:`register_cell_runner` when imported (missing ones are skipped)."""
+
+
+def register_cell_runner(algo: str, runner: CellRunner) -> None:
+    """Run cells whose method has ``algo`` with ``runner`` (replaces an earlier registration)."""
+    CELL_RUNNERS[algo] = runner
+
+
+def load_runners() -> dict[str, CellRunner]:
+    for module in RUNNER_PLUGINS:
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:
+                raise
+    return CELL_RUNNERS
+
+
+def runner_for(algo: str, where: str = "algo") -> CellRunner:
+    """The runner of ``algo``: a registered family first, then the shared trainer for ``core.algos``."""
+    from core.algos import load_algos
+    from core.experiments.spec import ExperimentError
+
+    runners = load_runners()
+    if algo in runners:
+        return runners[algo]
+    algos = load_algos()
+    if algo in algos:
+        return TRAINER_RUNNER
+    known = sorted({*algos, *runners})
+    raise ExperimentError(f"bad value for {where}: unknown algo {algo!r} (choose from {', '.join(known)})")

@@ -1,0 +1,188 @@
+"""`dualsys experiment run|report`: multi-seed comparison grids (parse, call core.experiments, print).
+
+``run FILE`` trains every (method, reward, seed) cell of an experiment file into
+``OUT/<experiment>/<label>/<reward>/seed-<s>/`` on local worker processes or a Ray cluster, with one live
+progress display; running it again skips finished cells and resumes interrupted ones. ``report DIR``
+writes report.md and the figures (docs/experiments.md).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.console import Console, Group
+from rich.table import Table
+from rich.text import Text
+
+from dualsys_cli.errors import user_errors
+
+app = typer.Typer(
+    help="Experiment grids (methods × reward modes × seeds): run them in parallel, report them.",
+    no_args_is_help=True,
+)
+
+DEFAULT_OUT = Path("dualsys-experiments")
+"""Where experiments go without --out."""
+
+SHIPPED = Path(__file__).resolve().parents[1] / "experiments"
+"""The paper's grids (experiments/*.yaml in the repository)."""
+
+
+def resolve_experiment_file(file: Path) -> Path:
+    """``file`` if it exists, else the shipped ``experiments/<file>.yaml`` (``run smoke`` works)."""
+    if file.exists() or file.suffix:
+        return file
+    shipped = SHIPPED / f"{file}.yaml"
+    return shipped if shipped.is_file() else file
+
+
+class _ProgressView:
+    """Renders the runner's ExperimentProgress: counts, then one row per running cell."""
+
+    def __init__(self) -> None:
+        self.progress: Any = None
+
+    def update(self, progress: Any) -> None:
+        self.progress = progress
+
+    def __rich__(self) -> Any:
+        progress = self.progress
+        if progress is None:
+            return Text("starting workers…")
+        elapsed = time.monotonic() - progress.started
+        header = Text.assemble(
+            (f"{progress.experiment}", "bold"),
+            f"  {progress.count('done', 'skipped')}/{len(progress.cells)} done",
+            f" · {progress.count('running')} running · {progress.count('queued')} queued",
+            (f" · {progress.count('failed')} failed", "red") if progress.count("failed") else "",
+            (f" · {progress.count('interrupted')} interrupted", "yellow")
+            if progress.count("interrupted")
+            else "",
+            f" · {int(elapsed // 60)}:{int(elapsed % 60):02d}",
+        )
+        running = progress.running()
+        if not running:
+            return header
+        table = Table(box=None, pad_edge=False, show_header=True, header_style="dim")
+        for column in ("cell", "steps", "", "success(100)", "eval", "worker"):
+            table.add_column(column)
+        for cell in running:
+            fraction = min(1.0, cell.step / cell.budget) if cell.budget else 0.0
+            bar = "█" * int(fraction * 20) + "░" * (20 - int(fraction * 20))
+            table.add_row(
+                cell.key,
+                f"{cell.step:,}/{cell.budget:,}",
+                bar,
+                "–" if math.isnan(cell.success) else f"{cell.success:.0%}",
+                "–" if math.isnan(cell.eval_success) else f"{cell.eval_success:.0%}",
+                cell.worker,
+            )
+        return Group(header, table)
+
+
+@app.command("run")
+def run_command(
+    file: Path = typer.Argument(..., help="Experiment file (YAML), or the name of one in experiments/."),
+    out: Path = typer.Option(DEFAULT_OUT, "--out", help="Folder of experiments (cells: OUT/<name>/...)."),
+    workers: int = typer.Option(
+        None, "--workers", min=1, help="Parallel cells (default: the cores here, or the Ray cluster's CPUs)."
+    ),
+    ray: str = typer.Option(
+        None, "--ray", help="Run cells as Ray tasks on this cluster (e.g. 10.0.0.5:6379); OUT must be shared."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON line with the outcome."),
+) -> None:
+    """Run every unfinished cell of an experiment; again, to resume after an interruption."""
+    from rich.live import Live
+
+    from core.experiments import load_experiment, run_experiment
+
+    console = Console(stderr=True)
+    view = _ProgressView()
+    with user_errors():
+        spec = load_experiment(resolve_experiment_file(file))
+        try:
+            with Live(view, console=console, refresh_per_second=4, transient=False):
+                result = run_experiment(
+                    spec, out, workers=workers, ray_address=ray, progress_callback=view.update
+                )
+        except KeyboardInterrupt:
+            typer.secho(
+                "stopped: every cell keeps its latest checkpoint; run the same command again to resume",
+                err=True,
+                fg=typer.colors.YELLOW,
+            )
+            raise typer.Exit(code=130) from None
+    if as_json:
+        typer.echo(json.dumps(result.to_dict()))
+    else:
+        typer.echo(
+            f"{result.directory}: {len(result.done)} cells run, {len(result.skipped)} already done, "
+            f"{len(result.failed)} failed, {len(result.interrupted)} interrupted "
+            f"({result.wall_s:.0f} s)"
+        )
+        for key, reason in {**result.failed, **result.interrupted}.items():
+            typer.echo(f"  {key}: {reason}")
+        if result.complete:
+            typer.echo(f"report: dualsys experiment report {result.directory}")
+        else:
+            typer.echo("run the same command again to resume the unfinished cells")
+    if not result.complete:
+        raise typer.Exit(code=1)
+
+
+@app.command("report")
+def report_command(
+    directory: Path = typer.Argument(..., help="An experiment folder (OUT/<name>)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the numbers as one JSON object."),
+    reps: int = typer.Option(None, "--reps", min=100, help="Bootstrap replications (default 2000)."),
+) -> None:
+    """Write report.md, learning_curves.png and scores.png: IQM with 95% bootstrap CIs, mean ± std,
+    probability of improvement over the model-free baseline, Fig. 8-style learning curves."""
+    from core.experiments import write_report
+
+    with user_errors():
+        report = write_report(directory, reps=reps)
+    if as_json:
+        typer.echo(json.dumps(_json_ready({k: v for k, v in report.items() if k != "files"})))
+        return
+    console = Console()
+    table = Table(title=f"{report['experiment']}: IQM [95% CI] over seeds")
+    for column in ("method", "reward", "seeds", "AuC", "Final Perf", "greedy success"):
+        table.add_column(column)
+    for label, per_reward in report["methods"].items():
+        for reward, entry in per_reward.items():
+            table.add_row(
+                label,
+                reward,
+                str(entry["seeds"]),
+                *(_interval(entry[metric]) for metric in ("auc", "final_perf", "success")),
+            )
+    console.print(table)
+    typer.echo(f"{report['done']} of {report['cells']} cells finished")
+    if report["missing"]:
+        typer.echo(f"missing: {', '.join(report['missing'])}")
+    for name, path in report["files"].items():
+        typer.echo(f"{name}: {path}")
+
+
+def _interval(summary: dict[str, Any]) -> str:
+    if summary.get("iqm") is None:
+        return "–"
+    low, high = summary["ci"]
+    return f"{summary['iqm']:.3f} [{low:.3f}, {high:.3f}]"
+
+
+def _json_ready(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {key: _json_ready(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_ready(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

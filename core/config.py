@@ -190,6 +190,9 @@ class DualConfig:
     """Samples per local-model update (released code: the one real transition)."""
     new_node_model: Literal["fresh", "parent"] = "fresh"
     """A new ITM node's model: freshly initialised (released code) or copied from its parent node."""
+    arbitration: Literal["lp", "model_free"] = "lp"
+    """Meta-controller: LP-based arbitration (Alg. 2 lines 12-19), or ``model_free`` — an ablation that always
+    acts with μ(φ) (no MPC, so no I2A imagination), keeping regions, local models and r_int."""
     d_max: int = 6
     """Maximum planning depth D_max (Algorithm 1)."""
     plan_steps: int = 10

@@ -27,7 +27,8 @@ One training step of the ITM methods (Alg. 2 / Alg. 3), split over the trainer's
 Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_error`` (mean Eq. 8 error
 of the real transitions), ``mb_decisions`` / ``mf_decisions`` (counts), ``horizon`` (mean H of the
 model-based decisions, NaN when none), ``itm_nodes``, ``imagined`` (latent transitions added),
-``intrinsic_reward`` (mean r_int), ``plan_loss_drop`` (mean L_plan decrease over the K MPC steps).
+``intrinsic_reward`` (mean r_int), ``plan_loss_drop`` (mean L_plan decrease over the K MPC steps),
+``plan_action_shift`` (mean max-abs difference between the executed MPC action and the actor's μ(φ_t)).
 """
 
 from __future__ import annotations
@@ -59,6 +60,7 @@ class _EpisodeCounters:
         self.intrinsic: list[float] = []
         self.horizons: list[int] = []
         self.plan_drops: list[float] = []
+        self.action_shifts: list[float] = []
         self.mf_decisions = 0
         self.imagined = 0
 
@@ -91,6 +93,8 @@ class DualSystemAgent(ModelFreeAgent):
         model_seed = int(rng.integers(0, 2**62))
         self.world = LocalWorldModels(dual, latent_dim, spec.action_dim, regions=regions,
                                       generator=torch.Generator().manual_seed(model_seed))
+        if dual.arbitration == "model_free":  # ablation: the model-based system is never picked
+            arbitration = False
         self.meta = MetaController(self.world, dual, fixed_horizon=fixed_horizon) if arbitration else None
         self.latent_replay: LatentReplay | None = None
         if imagination != "none":
@@ -147,6 +151,9 @@ class DualSystemAgent(ModelFreeAgent):
         self.total_mb_decisions += 1
         if plan is not None:
             self.counters.plan_drops.append(plan.initial_loss - plan.final_loss)
+            # How far the MPC moved the executed action from μ(φ_t), the rollout's first action.
+            initial = rollout.actions[0].clamp(-1.0, 1.0)
+            self.counters.action_shifts.append(float((plan.action - initial).abs().max()))
 
     def _store_imagined(self, rollout: Rollout) -> None:
         if rollout.depth == 0 or self.latent_replay is None:
@@ -201,6 +208,7 @@ class DualSystemAgent(ModelFreeAgent):
             "dual/imagined": float(c.imagined),
             "dual/intrinsic_reward": _mean(c.intrinsic),
             "dual/plan_loss_drop": _mean(c.plan_drops),
+            "dual/plan_action_shift": _mean(c.action_shifts),
         })
         if self.latent_replay is not None:
             out["charts/latent_replay_size"] = float(len(self.latent_replay))

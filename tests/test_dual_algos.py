@@ -62,6 +62,32 @@ def test_i2a_adds_exactly_h_imagined_transitions_per_model_based_step() -> None:
     assert agent.counters.imagined == sum(agent.counters.horizons) == len(agent.latent_replay)
 
 
+def test_arbitration_model_free_ablation_never_plans_but_keeps_intrinsic_reward() -> None:
+    agent = _agent("i2a", "dual.arbitration=model_free")
+    obs = _obs()
+    agent.begin_episode(obs)
+    for _ in range(80):  # the same repeated image makes the full I2A go model-based (test above)
+        _step(agent, obs)
+    assert agent.meta is None
+    assert agent.counters.horizons == [] and len(agent.latent_replay) == 0
+    assert agent.counters.mf_decisions == 80
+    assert any(value != 0.0 for value in agent.counters.intrinsic)
+
+
+def test_plan_action_shift_is_the_distance_of_the_executed_action_from_the_actors() -> None:
+    agent = _agent("im2c", "dual.plan_lr=0.5")
+    obs = _obs()
+    agent.begin_episode(obs)
+    for _ in range(80):
+        _step(agent, obs)
+    shifts = agent.counters.action_shifts
+    assert len(shifts) == len(agent.counters.horizons) > 0
+    assert all(0.0 <= shift <= 2.0 for shift in shifts)
+    assert max(shifts) > 0.0  # a large α_plan moves the action
+    diagnostics = agent.episode_diagnostics()
+    assert diagnostics["dual/plan_action_shift"] == pytest.approx(float(np.mean(shifts)))
+
+
 def test_im2c_stores_nothing_imagined_and_stores_r_ext_plus_r_int() -> None:
     agent = _agent("im2c")
     obs = _obs(1)

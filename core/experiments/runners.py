@@ -145,7 +145,7 @@ TRAINER_RUNNER = TrainerRunner()
 CELL_RUNNERS: dict[str, CellRunner] = {}
 """Runners registered for algo names outside ``core.algos`` (e.g. ``sb3-sac``)."""
 
-RUNNER_PLUGINS: tuple[str, ...] = ()
+RUNNER_PLUGINS: tuple[str, ...] = ("core.experiments.sb3_peer",)
 """Modules that call :func:`register_cell_runner` when imported (missing ones are skipped)."""
 
 

@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 from tests.utils.browser import browser_or_skip, console_errors
-from tests.utils.jobs import job, submit, wait_progress, wait_status
+from tests.utils.jobs import job, metrics, submit, wait_progress, wait_status
 from tests.utils.live_service import LiveService, wait_for
 from tests.utils.registered import register_version
 
@@ -197,3 +197,59 @@ def test_script_in_a_tag_or_spec_renders_as_text(
     assert browser.find_elements("css selector", "main img") == []
     page("job-xss")
     assert console_errors(browser, allow=REFUSED) == []
+
+
+TINY_I2A = {
+    "net.conv_channels": "4,4",
+    "net.latent_dim": 8,
+    "net.critic_hidden": 8,
+    "net.actor_hidden": 8,
+    "env.max_steps": 8,
+    "run.eval_every": 5,
+    "run.eval_episodes": 1,
+    "run.checkpoint_every": 5,
+    "run.num_threads": 1,
+    "agent.learning_starts": 5,
+    "agent.batch_size": 8,
+}
+
+
+def test_train_job_page_draws_greedy_success_and_dual_system_diagnostics(
+    browser: Any, page: Callable[[str], None], start_service: Callable[..., LiveService]
+) -> None:
+    """A real (tiny) I2A training job: the trainer's own metric keys reach the browser's panels."""
+    pytest.importorskip("core.trainer", reason="the trainer (core.trainer) is not installed")
+    service = start_service()
+    with service.client() as client:
+        trained = submit(
+            client, "train", algo="i2a", reward="sparse", seed=1, episodes=20, overrides=TINY_I2A
+        )
+        wait_progress(client, trained["id"], 1, timeout=180)
+        browser.get(f"{service.url}/ui/jobs/{trained['id']}")
+        wait_status(client, trained["id"], {"succeeded"}, timeout=180)
+        wait_for(lambda: _text(browser, "#job-status") == "succeeded", timeout=30, what="the page's status")
+        wait_for(lambda: _attr(browser, "#curve", "data-points") == "20", timeout=30, what="all 20 episodes")
+        evaluations = [
+            m for m in metrics(client, trained["id"]) if m["data"].get("eval/success_rate") is not None
+        ]
+        assert len(evaluations) >= 4
+        dots = browser.find_elements("css selector", "#curve svg .dots.succ circle")
+        assert len(dots) == len(evaluations)  # one greedy-success point per evaluation
+        keys = [_attr(browser, "#diagnostics", "data-points")] + [
+            e.get_attribute("data-keys") for e in browser.find_elements("css selector", "#diagnostics .panel")
+        ]
+        assert keys[0] == "20"
+        for wanted in (
+            "dual/model_error",
+            "dual/mb_decisions dual/mf_decisions",
+            "dual/horizon",
+            "dual/itm_nodes",
+        ):
+            assert wanted in keys, f"no panel for {wanted}: {keys}"
+        decisions = browser.find_element(
+            "css selector", '#diagnostics .panel[data-keys^="dual/mb_decisions"]'
+        )
+        assert len(decisions.find_elements("css selector", "path.line")) == 2  # model-based and model-free
+        assert "greedy evaluation at episode 20" in _text(browser, "#job-success")
+        page("train-job")
+    assert console_errors(browser) == []

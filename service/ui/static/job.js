@@ -267,7 +267,8 @@
       return;
     }
     const win = windowFor(n);
-    const width = Math.max(260, Math.floor(((panels.clientWidth || 800) - 16) / 2));
+    const columns = window.matchMedia("(max-width: 900px)").matches ? 1 : 2;
+    const width = Math.max(260, Math.floor(((panels.clientWidth || 800) - 12 * (columns - 1)) / columns) - 10);
     const nodes = present.map(function (g) {
       const series = g.series.filter(function (s) { return rec.dual[s[0]]; }).map(function (s, i) {
         return { name: s[1], xs: rec.x, ys: smooth(rec.dual[s[0]], win), cls: "d" + i, axis: "left" };

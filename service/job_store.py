@@ -95,16 +95,17 @@ def get_job(database: Database, *, job_id: int) -> Job:
 def list_jobs(
     database: Database, *, status: str | None, kind: str | None, offset: int, limit: int
 ) -> tuple[list[Any], int]:
-    """A page of jobs (Core row objects with Job's attribute names), newest first, and the count."""
+    """A page of jobs (Core row objects with Job's attribute names), newest first, and the count,
+    read in one transaction on one Core connection (the hot path of `GET /jobs`)."""
     query = select(*Job.__table__.columns)
     counter = select(func.count()).select_from(Job)
     if status is not None:
         query, counter = query.where(Job.status == status), counter.where(Job.status == status)
     if kind is not None:
         query, counter = query.where(Job.kind == kind), counter.where(Job.kind == kind)
-    with database.read() as session:
-        rows = list(session.execute(query.order_by(Job.id.desc()).offset(offset).limit(limit)))
-        return rows, int(session.scalar(counter) or 0)
+    with database.read_connection() as connection:
+        rows = list(connection.execute(query.order_by(Job.id.desc()).offset(offset).limit(limit)))
+        return rows, int(connection.scalar(counter) or 0)
 
 
 def claim_next_job(database: Database, *, owner: str, pid: int | None = None) -> ClaimedJob | None:

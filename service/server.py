@@ -44,6 +44,7 @@ def _uvicorn_options(settings: ServiceSettings) -> dict:
         "host": settings.host,
         "port": settings.port,
         "log_level": "info",
+        "access_log": settings.access_log,
         "timeout_graceful_shutdown": int(settings.cancel_grace_s) + 5,
         "limit_concurrency": 1000,
     }

@@ -103,6 +103,11 @@ class Supervisor:
         """Look at the queue now (called after a submission or a cancel)."""
         self._wake.set()
 
+    def wake_to_claim(self) -> None:
+        """After a submission: look at the queue now if a slot is free (else the next exit will)."""
+        if self.executor.free_slots() > 0:
+            self._wake.set()
+
     def stop(self) -> None:
         """Stop claiming, stop the workers (they checkpoint on SIGTERM) and re-queue their jobs."""
         self._stopping.set()

@@ -59,7 +59,7 @@ def submit_job(
         idempotency_key=idempotency_key,
     )
     if state.supervisor is not None:
-        state.supervisor.wake()
+        state.supervisor.wake_to_claim()
     return json_response(
         job_public(job),
         status_code=status.HTTP_202_ACCEPTED if created else status.HTTP_200_OK,
@@ -74,12 +74,12 @@ def list_jobs(
     kind: JobKindName | None = None,
     offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
-) -> JobsPublic:
+) -> Response:
     """Jobs, newest first, filtered by status and kind, paged with offset/limit."""
     rows, count = job_store.list_jobs(
         state.database, status=status_filter, kind=kind, offset=offset, limit=limit
     )
-    return JobsPublic(data=[job_public(j) for j in rows], count=count)
+    return json_response(JobsPublic(data=[job_public(j) for j in rows], count=count))
 
 
 @router.get("/{job_id}", response_model=JobPublic, responses=ERRORS)

@@ -31,6 +31,8 @@ TRAIN_WINDOW = 100
 """Training episodes averaged for the fallback success figure (as the summary's `..._last100`)."""
 FIRST_LOOK_ROWS = 1000
 """How far back the first look at a running job goes for its last greedy evaluation."""
+MAX_TRACKED = 500
+"""Jobs remembered by `SuccessTracker` before it forgets all but the ones on the page it serves."""
 RELEASED_LEVEL = "released"
 """What the table shows for a train job whose config names no `env.level` (the released task)."""
 
@@ -148,6 +150,9 @@ class SuccessTracker:
             for job in jobs:
                 if job.status in FINISHED_STATUSES:
                     self._seen.pop(job.id, None)
+            if len(self._seen) > MAX_TRACKED:  # jobs that finished while nobody looked at them
+                keep = {job.id for job in active}
+                self._seen = {k: v for k, v in self._seen.items() if k in keep}
             if active:
                 self._read_new_rows(database, active)
             for job in active:

@@ -1,0 +1,143 @@
+"""Experiment files: validation (one line naming the key, exit 2, nothing written), the shipped grids,
+cell expansion and the method → runner dispatch."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from core.experiments import ExperimentError, expand_cells, load_experiment
+from core.experiments.runners import CELL_RUNNERS, TRAINER_RUNNER, register_cell_runner, runner_for
+from dualsys_cli.main import app
+from tests.experiments.conftest import tiny_experiment_data
+
+SHIPPED = Path(__file__).resolve().parents[2] / "experiments"
+
+
+def _bad(**changes):
+    return tiny_experiment_data(**changes)
+
+
+BAD_FILES = {
+    "unknown algo": (
+        _bad(methods=[{"label": "X", "algo": "nonsense"}]),
+        "methods[0].algo: unknown algo 'nonsense'",
+    ),
+    "unknown key": (_bad(budget=100), "unknown key 'budget'"),
+    "unknown method key": (
+        _bad(methods=[{"label": "X", "algo": "ddpg", "actor": "ddpg"}]),
+        "unknown key 'methods[0].actor'",
+    ),
+    "unknown config key": (_bad(overrides={"agent.nonsense": 1}), "unknown config key 'agent.nonsense'"),
+    "zero seeds": (_bad(seeds=0), "seeds: an experiment needs at least one seed"),
+    "empty seed list": (_bad(seeds=[]), "seeds: an experiment needs at least one seed"),
+    "missing budget": (
+        {k: v for k, v in tiny_experiment_data().items() if k != "steps"},
+        "missing key 'steps'",
+    ),
+    "reserved key": (_bad(overrides={"run.seed": 3}), "run.seed is set by the experiment"),
+    "bad level": (_bad(level="easy"), "bad value for level: 'easy'"),
+    "bad reward": (_bad(rewards=["dense", "shaped"]), "bad value for rewards: 'shaped'"),
+    "duplicate label": (
+        _bad(methods=[{"label": "A", "algo": "ddpg"}, {"label": "A", "algo": "cacla"}]),
+        "methods[1].label: 'A' is used twice",
+    ),
+    "ac against algo": (
+        _bad(methods=[{"label": "A", "algo": "ddpg", "ac": "cacla"}]),
+        "ddpg always uses the ddpg actor update",
+    ),
+    "bad override value": (_bad(overrides={"agent.batch_size": "many"}), "agent.batch_size"),
+    "unknown baseline": (_bad(baseline="PPO"), "baseline: 'PPO' is not a method label"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_FILES))
+def test_bad_file_is_one_line_exit_2_and_writes_nothing(tmp_path, case):
+    data, message = BAD_FILES[case]
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(data))
+    out = tmp_path / "out"
+    result = CliRunner().invoke(app, ["experiment", "run", str(path), "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    assert result.stderr.strip().count("\n") == 0, result.stderr
+    assert message in result.stderr
+    assert "Traceback" not in result.output
+    assert not out.exists()
+
+
+def test_unreadable_and_missing_files(tmp_path):
+    missing = CliRunner().invoke(app, ["experiment", "run", str(tmp_path / "none.yaml")])
+    assert missing.exit_code == 2 and "experiment file not found" in missing.stderr
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("name: [unclosed\n")
+    result = CliRunner().invoke(app, ["experiment", "run", str(broken)])
+    assert result.exit_code == 2 and "cannot parse" in result.stderr
+
+
+@pytest.mark.parametrize("name", ["smoke", "table1", "fig10", "fig11"])
+def test_shipped_grids_load(name):
+    spec = load_experiment(SHIPPED / f"{name}.yaml")
+    assert spec.name == name
+    if name != "smoke":
+        assert spec.rewards == ("dense", "sparse")
+        assert len(spec.seeds) == 5  # the paper averages 5 seeds
+        assert len({method.label for method in spec.methods}) in (3, 4)
+
+
+def test_shipped_grids_are_the_papers(tmp_path):
+    algos = {
+        name: {(m.label, m.algo, m.ac) for m in load_experiment(SHIPPED / f"{name}.yaml").methods}
+        for name in ("table1", "fig10", "fig11")
+    }
+    assert {a for _, a, _ in algos["table1"]} == {"ddpg", "cacla", "im2c"}
+    assert ("CACLA+IM2C", "im2c", "cacla") in algos["table1"]
+    assert {a for _, a, _ in algos["fig10"]} == {"im2c", "cmc", "mve"}
+    assert {a for _, a, _ in algos["fig11"]} == {"i2a", "im2c", "la-imagination"}
+
+
+def test_cells_are_run_directories_with_the_cell_keys(tmp_path):
+    spec = load_experiment(yaml.safe_dump(tiny_experiment_data(rewards=["dense", "sparse"], seeds=[3, 7])))
+    cells = expand_cells(spec, tmp_path)
+    assert len(cells) == 2 * 2 * 2
+    im2c = next(c for c in cells if c.label == "DDPG+IM2C" and c.reward == "sparse" and c.seed == 7)
+    assert im2c.run_dir == tmp_path / "tiny" / "DDPG+IM2C" / "sparse" / "seed-7"
+    config = im2c.config
+    assert config["run"]["algo"] == "im2c" and config["agent"]["ac"] == "ddpg"
+    assert config["run"]["seed"] == 7 and config["run"]["steps"] == 100 and config["run"]["episodes"] is None
+    assert config["run"]["max_wall_s"] is None and config["run"]["num_threads"] == 1
+    assert config["env"]["reward_mode"] == "sparse" and config["env"]["level"] == "released"
+    assert config["run"]["eval_every"] == 10 and config["run"]["eval_episodes"] == 2
+    assert config["net"]["conv_channels"] == [4, 4] and config["run"]["checkpoint_every_s"] == 60.0
+    assert not tmp_path.joinpath("tiny").exists()  # expanding writes nothing
+
+
+def test_level_is_passed_as_env_level(tmp_path):
+    spec = load_experiment(yaml.safe_dump(tiny_experiment_data(level="paper")))
+    config = expand_cells(spec, tmp_path)[0].config
+    assert config["env"]["level"] == "paper" and config["env"]["hand"] == "learned"
+
+
+def test_a_new_algo_family_plugs_in_through_the_runner_registry():
+    class ProbeRunner:
+        def resolve(self, spec, method, reward, seed):
+            return {"run": {"algo": method.algo, "seed": seed, "steps": spec.steps}, "env": {}}
+
+        def normalise(self, stored):
+            return dict(stored)
+
+        def train(self, config, run_dir, **kwargs):  # pragma: no cover - not run here
+            raise NotImplementedError
+
+    assert runner_for("ddpg") is TRAINER_RUNNER
+    with pytest.raises(ExperimentError, match="unknown algo 'probe-sac'"):
+        runner_for("probe-sac")
+    register_cell_runner("probe-sac", ProbeRunner())
+    try:
+        data = tiny_experiment_data(methods=[{"label": "P", "algo": "probe-sac"}])
+        spec = load_experiment(yaml.safe_dump(data))
+        assert expand_cells(spec, "out")[0].config["run"] == {"algo": "probe-sac", "seed": 0, "steps": 100}
+    finally:
+        CELL_RUNNERS.pop("probe-sac")

@@ -1,0 +1,232 @@
+"""Stable-Baselines3 SAC/TD3 as experiment methods (core/experiments/sb3_peer.py): the run directory and its
+keys match the trainer's, stop + resume continues the same episodes, a seed reproduces a run, the features
+extractor is our encoder, and the experiment runner dispatches ``sb3-sac``/``sb3-td3`` to it."""
+
+from __future__ import annotations
+
+import csv
+import json
+import sys
+
+import pytest
+import yaml
+
+pytest.importorskip(
+    "stable_baselines3", reason="Stable-Baselines3 is in the bench extra: pip install -e '.[bench]'"
+)
+
+import torch
+from gymnasium import spaces
+
+from core.config import NetConfig, load_config
+from core.experiments import cell_state, expand_cells, load_experiment, run_cell, run_experiment
+from core.experiments.report import build_report
+from core.experiments.runners import runner_for
+from core.experiments.sb3_peer import (
+    DualsysEncoderExtractor,
+    SB3Runner,
+    missing_sb3_message,
+    require_sb3,
+    train_sb3,
+)
+from core.experiments.spec import ExperimentError
+from core.nets import Encoder
+from core.run_dir import load_checkpoint
+from core.trainer import RECORD_KEYS, train
+from tests.experiments.conftest import tiny_experiment_data
+
+TINY = [
+    "env.level=hard",
+    "env.reward_mode=sparse",
+    "env.max_steps=10",
+    "run.steps=60",
+    "run.episodes=none",
+    "run.eval_every=8",
+    "run.eval_episodes=2",
+    "run.checkpoint_every=4",
+    "agent.learning_starts=20",
+    "agent.buffer_size=500",
+    "agent.batch_size=8",
+]
+
+
+def rows(run_dir) -> list[dict[str, str]]:
+    with (run_dir / "metrics.csv").open(newline="") as file:
+        return list(csv.DictReader(file))
+
+
+def returns(run_dir) -> list[tuple[int, int, float]]:
+    return [
+        (int(r["episode"]), int(r["global_step"]), float(r["charts/episodic_return"])) for r in rows(run_dir)
+    ]
+
+
+def test_extractor_is_our_encoder_on_channels_first_images_scaled_once():
+    space = spaces.Box(0, 255, (3, 32, 64), dtype="uint8")  # what VecTransposeImage hands SB3's policy
+    extractor = DualsysEncoderExtractor(space, arch="strided", conv_channels=[16, 32, 32], latent_dim=32)
+    ours = Encoder(NetConfig())
+    assert extractor.features_dim == 32
+    assert [(n, p.shape) for n, p in extractor.encoder.named_parameters()] == [
+        (n, p.shape) for n, p in ours.named_parameters()
+    ]
+    assert str(extractor.encoder) == str(ours)
+    images = torch.randint(0, 256, (5, 32, 64, 3), dtype=torch.uint8)
+    ours.load_state_dict(extractor.encoder.state_dict())
+    # SB3 feeds float [N, C, H, W] already divided by 255; our encoder expects exactly that
+    chw = images.permute(0, 3, 1, 2).float() / 255.0
+    features = extractor(chw)
+    assert features.shape == (5, 32)
+    assert torch.allclose(features, ours(chw))
+    with pytest.raises(ValueError, match="channels-first"):
+        DualsysEncoderExtractor(spaces.Box(0, 255, (32, 64, 3), dtype="uint8"))
+
+
+def test_sac_policy_sees_uint8_observations_through_the_extractor_once_scaled(tmp_path):
+    from stable_baselines3 import SAC
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from core.experiments.sb3_peer import extractor_kwargs
+    from core.trainer import make_env
+
+    config = load_config("default", TINY)
+    env = make_env(config)
+    model = SAC(
+        "CnnPolicy",
+        DummyVecEnv([lambda: env]),
+        policy_kwargs={
+            "features_extractor_class": DualsysEncoderExtractor,
+            "features_extractor_kwargs": extractor_kwargs(config.net),
+        },
+        buffer_size=10,
+        seed=0,
+        device="cpu",
+    )
+    try:
+        assert model.observation_space.shape == (3, 32, 64)  # transposed by SB3
+        for extractor in (model.actor.features_extractor, model.critic.features_extractor):
+            assert isinstance(extractor, DualsysEncoderExtractor)
+        obs, _ = env.reset(seed=0)
+        tensor, _ = model.policy.obs_to_tensor(obs)  # HWC uint8 → CHW, as predict() does
+        features = model.actor.extract_features(tensor, model.actor.features_extractor)
+        expected = model.actor.features_extractor.encoder(
+            torch.as_tensor(obs).permute(2, 0, 1)[None].float() / 255.0
+        )
+        assert torch.allclose(features, expected)
+        action, _ = model.predict(obs, deterministic=True)
+        assert action.shape == env.action_space.shape
+    finally:
+        env.close()
+
+
+def test_tiny_sac_run_writes_the_trainers_files_and_keys(tmp_path):
+    config = load_config("default", TINY)
+    episodes: list[dict] = []
+    summary = train_sb3(config, tmp_path / "sac", algo="sac", on_episode=episodes.append, command="test")
+    ddpg = train(load_config("default", [*TINY, "run.algo=ddpg"]), tmp_path / "ddpg", command="test")
+    run = tmp_path / "sac"
+    for name in ("config.yaml", "command.txt", "metrics.csv", "summary.json", "learning_curve.png"):
+        assert (run / name).is_file(), name
+    for name in ("latest.pt", "best.zip"):
+        assert (run / "checkpoints" / name).is_file(), name
+    assert set(summary) == set(ddpg)  # the same summary keys as the trainer's
+    assert json.loads((run / "summary.json").read_text())["algo"] == "sb3-sac"
+    assert summary["stopped"] is False and 60 <= summary["steps"] < 70  # the budget, to the episode
+    assert summary["success_rate"] is not None and summary["eval_episodes"] == 2
+    header = list(rows(run)[0])
+    assert header[: len(RECORD_KEYS)] == list(RECORD_KEYS)
+    data = rows(run)
+    assert (
+        [int(r["episode"]) for r in data] == list(range(1, len(data) + 1)) == [e["episode"] for e in episodes]
+    )
+    assert int(data[-1]["global_step"]) == summary["steps"]
+    assert sum(int(r["charts/length"]) for r in data) == summary["steps"]
+    assert all(r["eval/success_rate"] != "" for r in data if int(r["episode"]) % 8 == 0)
+    assert any(r["losses/critic"] != "" for r in data)  # SAC updated after learning_starts
+    from core.metrics import area_under_curve, final_performance
+
+    episode_returns = [float(r["charts/episodic_return"]) for r in data]
+    assert summary["auc"] == pytest.approx(area_under_curve(episode_returns))
+    assert summary["final_perf"] == pytest.approx(final_performance(episode_returns))
+    stored = yaml.safe_load((run / "config.yaml").read_text())
+    assert stored["run"]["algo"] == "sb3-sac" and stored["env"]["level"] == "hard"
+    latest = load_checkpoint(run / "checkpoints" / "latest.pt")
+    assert latest["counters"]["global_step"] == summary["steps"]
+    sb3_files = sorted(p.name for p in (run / "checkpoints").glob("sb3-*"))
+    assert sb3_files == sorted([latest["sb3"]["model"], latest["sb3"]["replay"]])  # older pairs removed
+    with pytest.raises(ValueError, match="already holds a run"):
+        train_sb3(config, run, algo="sac")
+
+
+def test_same_seed_same_episodes_and_stop_resume_continues_them(tmp_path):
+    config = load_config("default", TINY)
+    train_sb3(config, tmp_path / "a", algo="sac", command="test")
+    train_sb3(config, tmp_path / "b", algo="sac", command="test")
+    reference = returns(tmp_path / "a")
+    assert reference == returns(tmp_path / "b")  # SB3 on CPU, single thread: bit for bit
+
+    stop_at = {"episode": 7}
+    seen: list[int] = []
+
+    def on_episode(record):
+        seen.append(record["episode"])
+
+    summary = train_sb3(
+        config,
+        tmp_path / "c",
+        algo="sac",
+        on_episode=on_episode,
+        should_stop=lambda: bool(seen) and seen[-1] >= stop_at["episode"],
+        command="test",
+    )
+    assert summary["stopped"] is True and summary["episodes"] == 7
+    assert cell_state(tmp_path / "c") == "partial"
+    summary = train_sb3(config, tmp_path / "c", algo="sac", resume=True, command="test")
+    assert summary["stopped"] is False
+    resumed = returns(tmp_path / "c")
+    assert [e for e, _, _ in resumed] == list(range(1, len(resumed) + 1))  # no duplicate, none missing
+    assert resumed == reference  # the resumed run is the uninterrupted one
+    assert (tmp_path / "c" / "command.txt").read_text().count("test") == 2
+
+
+def test_td3_runs_and_resume_refuses_another_algorithm(tmp_path):
+    config = load_config("default", [*TINY, "run.steps=30"])
+    summary = train_sb3(config, tmp_path / "td3", algo="td3", command="test")
+    assert summary["algo"] == "sb3-td3" and summary["steps"] >= 30
+    with pytest.raises(ValueError, match="sb3-td3"):
+        train_sb3(config, tmp_path / "td3", algo="sac", resume=True)
+
+
+def test_experiment_runner_dispatches_sb3_methods(tmp_path):
+    data = tiny_experiment_data(
+        level="hard",
+        rewards=["sparse"],
+        seeds=1,
+        steps=30,
+        methods=[{"label": "DDPG", "algo": "ddpg"}, {"label": "SAC", "algo": "sb3-sac"}],
+    )
+    spec = load_experiment(data)
+    assert isinstance(runner_for("sb3-sac"), SB3Runner) and isinstance(runner_for("sb3-td3"), SB3Runner)
+    cells = expand_cells(spec, tmp_path)
+    sac = next(cell for cell in cells if cell.algo == "sb3-sac")
+    assert sac.config["run"]["algo"] == "sb3-sac" and sac.config["run"]["num_threads"] == 1
+    assert sac.config["agent"]["batch_size"] == 8  # the experiment's overrides reach SB3 cells too
+    result = run_experiment(spec, tmp_path, workers=1)
+    assert result.complete, result.to_dict()
+    assert cell_state(sac.run_dir) == "done"
+    assert run_cell(sac)["algo"] == "sb3-sac"  # a done cell is skipped: its stored summary
+    report = build_report(tmp_path / "tiny", reps=50)
+    assert set(report["methods"]) == {"DDPG", "SAC"}
+    assert report["methods"]["SAC"]["sparse"]["auc"]["n"] == 1
+    with pytest.raises(ExperimentError, match="no actor-update rule"):
+        load_experiment({**data, "methods": [{"label": "SAC", "algo": "sb3-sac", "ac": "ddpg"}]})
+
+
+def test_missing_sb3_is_a_one_line_error(monkeypatch):
+    monkeypatch.setitem(sys.modules, "stable_baselines3", None)  # import fails as if not installed
+    with pytest.raises(ExperimentError) as error:
+        require_sb3("sb3-sac")
+    assert str(error.value) == missing_sb3_message("sb3-sac")
+    assert str(error.value) == "sb3-sac needs Stable-Baselines3: pip install 'dualsys[bench]'"
+    data = tiny_experiment_data(methods=[{"label": "TD3", "algo": "sb3-td3"}])
+    with pytest.raises(ExperimentError, match=r"^sb3-td3 needs Stable-Baselines3"):
+        load_experiment(data)

@@ -7,10 +7,13 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import itertools
 import json
 import os
 import signal
+import time
 from collections.abc import Callable
+from datetime import datetime
 
 import pytest
 import torch
@@ -165,3 +168,48 @@ def test_train_job_survives_worker_kill_and_service_crash(start_service: Callabl
         assert [int(float(r["episode"])) for r in csv.DictReader(io.StringIO(text))] == list(
             range(1, episodes + 1)
         )
+
+
+def test_service_crash_loses_at_most_the_time_checkpoint_interval(
+    start_service: Callable[..., LiveService],
+) -> None:
+    """kill -9 of the service 30 episodes into a train job whose checkpoints come only by time
+    (`run.checkpoint_every_s`; by episode every 1000): the restarted job resumes past its first
+    checkpoint, and the work lost is what ran after the last one, measured here in episodes and seconds."""
+    every_s = 1.0
+    episodes = 45
+    overrides = {**TINY, "env.max_steps": 20, "run.checkpoint_every": 1000, "run.checkpoint_every_s": every_s}
+    service = start_service()
+    with service.client() as client:
+        created = submit(client, "train", algo="ddpg", episodes=episodes, overrides=overrides)
+        before = wait_for(
+            lambda: (j := job(client, created["id"]))["progress"]["episode"] >= 30 and j,
+            timeout=180,
+            interval=0.05,
+            what="the job at episode 30",
+        )
+    service.kill()
+    killed_at = time.time()
+    service.start()
+    with service.client() as client:
+        done = wait_status(client, created["id"], FINISHED, timeout=240)
+        assert done["status"] == "succeeded" and done["attempt"] == 2, done
+        rows = metrics(client, created["id"])
+    assert [r["episode"] for r in rows] == list(range(1, episodes + 1))  # exactly once
+    resumed_at = min(r["episode"] for r in rows if r["attempt"] == 2)
+    assert resumed_at > 1, "the job started over instead of resuming from its time checkpoint"
+    kept = [r for r in rows if r["attempt"] == 1]
+    assert [r["episode"] for r in kept] == list(range(1, resumed_at))
+    reached = max(before["progress"]["episode"], resumed_at - 1)
+    lost_episodes = reached - (resumed_at - 1)
+    recorded = [datetime.fromisoformat(r["recorded_at"]).timestamp() for r in kept]
+    lost_s = killed_at - recorded[-1]
+    durations = [b - a for a, b in itertools.pairwise(recorded)]
+    print(
+        f"\ncrash at episode >= {before['progress']['episode']}: resumed at episode {resumed_at}, "
+        f"lost {lost_episodes}+ episodes and {lost_s:.2f} s of training "
+        f"(checkpoint_every_s={every_s}, episodes took {min(durations):.2f}-{max(durations):.2f} s)"
+    )
+    # a checkpoint is written at the first episode end `every_s` after the last one, so the work lost
+    # is under every_s plus one episode, plus the time between the observation and the kill
+    assert lost_s < every_s + max(durations) + 2.0, (lost_s, durations)

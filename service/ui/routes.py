@@ -19,7 +19,7 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Query
 from fastapi.responses import HTMLResponse, RedirectResponse
-from sqlalchemy import select
+from sqlalchemy import func, select
 
 from registry.errors import RegistryError
 from registry.models import Policy, PolicyVersion
@@ -174,7 +174,41 @@ def policies_page(state: StateDep) -> HTMLResponse:
     """Every policy with its newest version and aliases."""
     started = time.perf_counter()
     policies = state.registry.list_policies()
-    return _page("policies.html", started, title="Registry", nav="policies", policies=policies)
+    return _page(
+        "policies.html",
+        started,
+        title="Registry",
+        nav="policies",
+        policies=policies,
+        overview=_policy_overview(state),
+    )
+
+
+def _policy_overview(state: Any) -> dict[str, dict[str, Any]]:
+    """Per policy: how many versions, and when and from which job its newest one came."""
+    newest = (
+        select(
+            PolicyVersion.policy_id,
+            func.count().label("versions"),
+            func.max(PolicyVersion.version).label("top"),
+        )
+        .group_by(PolicyVersion.policy_id)
+        .subquery()
+    )
+    query = (
+        select(Policy.name, newest.c.versions, PolicyVersion.created_at, PolicyVersion.source_job_id)
+        .join(newest, newest.c.policy_id == Policy.id)
+        .join(
+            PolicyVersion,
+            (PolicyVersion.policy_id == Policy.id) & (PolicyVersion.version == newest.c.top),
+        )
+    )
+    with state.database.read() as session:
+        rows = session.execute(query).all()
+    return {
+        name: {"versions": versions, "latest_created": created, "latest_job": job_id}
+        for name, versions, created, job_id in rows
+    }
 
 
 @router.get("/policies/{name}", response_class=HTMLResponse)

@@ -146,6 +146,9 @@ def test_job_page_shows_config_artifacts_and_lineage(start_service: Callable[...
     assert 'href="/policies/grasp/versions/1/artifacts/checkpoints/best.pt"' in policy
     assert '<a href="/ui/policies/grasp#v1">grasp@1</a>' in aligned  # parent, linked
     assert "champion → v1" in policies and 'href="/ui/policies/grasp-aligned"' in policies
+    grasp_row = re.search(r'<tr data-policy="grasp">.*?</tr>', policies, re.S).group(0)
+    assert f'<a href="/ui/jobs/{probe["id"]}">job {probe["id"]}</a>' in grasp_row  # newest version's job
+    assert '<td class="num">1</td>' in grasp_row  # one version
 
 
 def test_diagnostics_panels_cover_every_key_of_the_learning_curve_picture() -> None:

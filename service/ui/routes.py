@@ -17,7 +17,7 @@ import time
 from datetime import UTC, datetime
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Query
+from fastapi import APIRouter, Path, Query
 from fastapi.responses import HTMLResponse, RedirectResponse
 from sqlalchemy import func, select
 
@@ -120,7 +120,7 @@ def jobs_rows(
 
 
 @router.get("/jobs/{job_id}", response_class=HTMLResponse)
-def job_page(job_id: int, state: StateDep) -> HTMLResponse:
+def job_page(job_id: Annotated[int, Path(ge=1, le=2**63 - 1)], state: StateDep) -> HTMLResponse:
     """One job: spec and config, live learning curve and diagnostics, artifacts, cancel."""
     started = time.perf_counter()
     try:

@@ -54,6 +54,7 @@ def test_root_redirects_and_pages_answer_with_security_headers(
         assert "http://" not in jobs_page and "https://" not in jobs_page  # nothing from outside
         missing = client.get("/ui/jobs/987654")
         assert missing.status_code == 404 and "no job with id 987654" in missing.text
+        assert client.get("/ui/jobs/99999999999999999999").status_code == 422  # not a 500
         assert client.get("/ui/policies/nothing-here").status_code == 404
         assert client.get("/ui?status=exploded").status_code == 404
         assert client.get("/ui?kind=nope").status_code == 404

@@ -1,0 +1,163 @@
+"""The report's numbers on made-up run directories equal a hand computation; partial experiments list
+their missing cells; the files and the --json shape."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from core.experiments import build_report
+from core.experiments.statistics import _improvement, _trimmed_mean, score_summary
+from dualsys_cli.main import app
+
+SEEDS = (0, 1, 2, 3)
+# Method "M" (a dual-system method) reaches final reward v in its last 500 episodes after 100 episodes at -1;
+# the baseline "B" stays at v - 1. Greedy success per seed is given directly.
+FINAL = {"M": [0.1, 0.2, 0.3, 0.9], "B": [-0.9, -0.8, -0.7, -0.1]}
+SUCCESS = {"M": [0.2, 0.4, 0.6, 1.0], "B": [0.0, 0.0, 0.2, 0.4]}
+
+
+def write_cell(
+    root: Path,
+    label: str,
+    reward: str,
+    seed: int,
+    returns: list[float],
+    success: float,
+    *,
+    stopped: bool = False,
+) -> None:
+    cell = root / label / reward / f"seed-{seed}"
+    (cell / "checkpoints").mkdir(parents=True)
+    with (cell / "metrics.csv").open("w", newline="") as file:
+        writer = csv.writer(file)
+        writer.writerow(["episode", "global_step", "charts/episodic_return", "charts/success"])
+        for episode, value in enumerate(returns, start=1):
+            writer.writerow([episode, 5 * episode, value, int(value > 0)])
+    summary = {
+        "algo": "im2c" if label == "M" else "ddpg",
+        "ac": "ddpg",
+        "reward": reward,
+        "seed": seed,
+        "episodes": len(returns),
+        "steps": 5 * len(returns),
+        "success_rate": success,
+        "stopped": stopped,
+    }
+    (cell / "summary.json").write_text(json.dumps(summary))
+    (cell / "checkpoints" / "latest.pt").write_bytes(b"")
+
+
+@pytest.fixture()
+def made_up(tmp_path: Path) -> Path:
+    root = tmp_path / "made-up"
+    root.mkdir()
+    spec = {
+        "name": "made-up",
+        "rewards": ["sparse"],
+        "seeds": list(SEEDS),
+        "steps": 3000,
+        "smoothing": {"sparse": 10},
+        "methods": [{"label": "M", "algo": "im2c", "ac": "ddpg"}, {"label": "B", "algo": "ddpg"}],
+    }
+    (root / "experiment.yaml").write_text(yaml.safe_dump(spec))
+    for label in ("M", "B"):
+        for seed in SEEDS:
+            returns = [-1.0] * 100 + [FINAL[label][seed]] * 500
+            write_cell(root, label, "sparse", seed, returns, SUCCESS[label][seed])
+    return root
+
+
+def test_numbers_equal_a_hand_computation(made_up: Path) -> None:
+    report = build_report(made_up)
+    assert report["cells"] == 8 and report["done"] == 8 and report["missing"] == []
+    m = report["methods"]["M"]["sparse"]
+    # Final Perf: mean of the last 500 episodes = v; IQM of 4 seeds = mean of the middle two.
+    assert m["final_perf"]["iqm"] == pytest.approx((0.2 + 0.3) / 2)
+    assert m["final_perf"]["mean"] == pytest.approx(np.mean(FINAL["M"]))
+    assert m["final_perf"]["std"] == pytest.approx(np.std(FINAL["M"]))
+    # AuC = mean of all 600 rewards = (100·(−1) + 500·v) / 600.
+    auc = [(-100 + 500 * v) / 600 for v in FINAL["M"]]
+    assert m["auc"]["iqm"] == pytest.approx((auc[1] + auc[2]) / 2)
+    assert m["auc"]["mean"] == pytest.approx(np.mean(auc))
+    assert m["auc_from_minus1"]["iqm"] == pytest.approx(((auc[1] + 1) / 2 + (auc[2] + 1) / 2) / 2)
+    assert m["success"]["iqm"] == pytest.approx(0.5) and m["seeds"] == 4
+    for metric in ("auc", "final_perf", "success", "auc_from_minus1"):
+        low, high = m[metric]["ci"]
+        assert low <= m[metric]["iqm"] <= high
+        assert min(FINAL["M"]) - 1 <= low < high <= 1.0
+    # B is M's baseline. Every M run beats every B run on Final Perf: P(M > B) = 1. Success, over the
+    # 16 pairs: 0.2 beats 2 and ties 1, 0.4 beats 3 and ties 1, 0.6 and 1.0 beat 4 → (2.5+3.5+4+4)/16.
+    assert m["baseline"] == "B" and report["methods"]["B"]["sparse"]["baseline"] is None
+    assert m["prob_improvement"]["final_perf"]["p"] == pytest.approx(1.0)
+    assert m["prob_improvement"]["success"]["p"] == pytest.approx(14 / 16)
+    low, high = m["prob_improvement"]["success"]["ci"]
+    assert low <= 14 / 16 <= high
+
+
+def test_fast_statistics_equal_rliables() -> None:
+    from rliable import metrics
+
+    rng = np.random.default_rng(0)
+    for size in (1, 2, 3, 4, 5, 8, 13):
+        x, y = rng.normal(size=(size, 1)), rng.integers(0, 3, size=(size + 1, 1)).astype(float)
+        assert _trimmed_mean(x) == pytest.approx(metrics.aggregate_iqm(x))
+        assert _improvement(x, y) == pytest.approx(metrics.probability_of_improvement(x, y))
+        assert _improvement(y, y) == pytest.approx(metrics.probability_of_improvement(y, y))
+    same = score_summary([0.5, 0.5, 0.5])
+    assert same["iqm"] == 0.5 and same["ci"] == [0.5, 0.5] and same["std"] == 0.0
+
+
+def test_partial_experiment_reports_what_exists_and_lists_the_missing(made_up: Path) -> None:
+    import shutil
+
+    shutil.rmtree(made_up / "B" / "sparse" / "seed-3")
+    stopped = made_up / "M" / "sparse" / "seed-0"
+    summary = json.loads((stopped / "summary.json").read_text())
+    (stopped / "summary.json").write_text(json.dumps({**summary, "stopped": True}))
+    report = build_report(made_up)
+    assert report["done"] == 6 and sorted(report["missing"]) == ["B/sparse/seed-3", "M/sparse/seed-0"]
+    m = report["methods"]["M"]["sparse"]
+    assert m["seeds"] == 3 and m["final_perf"]["mean"] == pytest.approx(np.mean([0.2, 0.3, 0.9]))
+    # 3 runs: ⌊0.25·3⌋ = 0 runs trimmed at each end, so the IQM is the mean.
+    assert m["final_perf"]["iqm"] == pytest.approx(np.mean([0.2, 0.3, 0.9]))
+    assert report["methods"]["B"]["sparse"]["seeds"] == 3
+
+
+def test_report_files_and_json_cli(made_up: Path) -> None:
+    result = CliRunner().invoke(app, ["experiment", "report", str(made_up), "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert set(data) >= {"experiment", "cells", "missing", "methods"}
+    entry = data["methods"]["M"]["sparse"]
+    assert set(entry) >= {"auc", "final_perf", "success", "seeds"}
+    assert set(entry["auc"]) >= {"iqm", "ci", "mean", "std"}
+    for name in ("report.md", "learning_curves.png", "scores.png"):
+        assert (made_up / name).stat().st_size > 0
+    markdown = (made_up / "report.md").read_text()
+    assert "| **Sparse reward** |" in markdown and "Probability of improvement" in markdown
+    assert "0.250 [" in markdown  # M's Final Perf IQM
+
+
+def test_report_errors_are_one_line(tmp_path: Path) -> None:
+    result = CliRunner().invoke(app, ["experiment", "report", str(tmp_path)])
+    assert result.exit_code == 2 and "holds no experiment.yaml" in result.stderr
+    assert result.stderr.strip().count("\n") == 0
+
+
+def test_learning_curves_share_an_env_step_grid(made_up: Path) -> None:
+    from core.experiments.report import collect, learning_curves
+
+    spec, _, records, _ = collect(made_up)
+    curves = learning_curves(spec, records, points=30)["sparse"]["M"]
+    assert curves["steps"][-1] == 3000 and len(curves["steps"]) == 30
+    # At the end, every seed's smoothed reward is its final value v: mean and std over seeds of v.
+    assert curves["mean"][-1] == pytest.approx(np.mean(FINAL["M"]))
+    assert curves["std"][-1] == pytest.approx(np.std(FINAL["M"]))
+    assert np.all(curves["n"] == 4)

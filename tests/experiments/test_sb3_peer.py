@@ -10,6 +10,7 @@ import sys
 
 import pytest
 import yaml
+from typer.testing import CliRunner
 
 pytest.importorskip(
     "stable_baselines3", reason="Stable-Baselines3 is in the bench extra: pip install -e '.[bench]'"
@@ -33,6 +34,7 @@ from core.experiments.spec import ExperimentError
 from core.nets import Encoder
 from core.run_dir import load_checkpoint
 from core.trainer import RECORD_KEYS, train
+from dualsys_cli.main import app
 from tests.experiments.conftest import tiny_experiment_data
 
 TINY = [
@@ -221,7 +223,7 @@ def test_experiment_runner_dispatches_sb3_methods(tmp_path):
         load_experiment({**data, "methods": [{"label": "SAC", "algo": "sb3-sac", "ac": "ddpg"}]})
 
 
-def test_missing_sb3_is_a_one_line_error(monkeypatch):
+def test_missing_sb3_is_a_one_line_error(monkeypatch, tmp_path, write_experiment):
     monkeypatch.setitem(sys.modules, "stable_baselines3", None)  # import fails as if not installed
     with pytest.raises(ExperimentError) as error:
         require_sb3("sb3-sac")
@@ -230,3 +232,8 @@ def test_missing_sb3_is_a_one_line_error(monkeypatch):
     data = tiny_experiment_data(methods=[{"label": "TD3", "algo": "sb3-td3"}])
     with pytest.raises(ExperimentError, match=r"^sb3-td3 needs Stable-Baselines3"):
         load_experiment(data)
+    path = write_experiment(methods=[{"label": "SAC", "algo": "sb3-sac"}])
+    result = CliRunner().invoke(app, ["experiment", "run", str(path), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert result.output.strip() == "error: sb3-sac needs Stable-Baselines3: pip install 'dualsys[bench]'"
+    assert not (tmp_path / "out").exists()

@@ -193,3 +193,19 @@ def test_cli_bad_level_is_one_line_and_exit_2():
     errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
     assert errors == ["error: unknown level 'easy'; choose one of: released, paper, hard"]
     assert "Traceback" not in result.stderr
+
+
+def test_cli_show_draws_the_levels_start_pose(tmp_path):
+    released, hard = tmp_path / "released.png", tmp_path / "hard.png"
+    for level, out in (("released", released), ("hard", hard)):
+        result = subprocess.run(
+            [*DUALSYS, "env", "show", "--level", level, "--out", str(out)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert result.returncode == 0, result.stderr
+    from PIL import Image
+
+    # The hand starts at 33° on released and at 0° on hard: the pictures differ.
+    assert np.asarray(Image.open(released)).tobytes() != np.asarray(Image.open(hard)).tobytes()

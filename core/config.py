@@ -163,6 +163,9 @@ class DualConfig:
 
     e_max: float = 6.0
     """ITM mapping resolution e_max (Section 4.1.1)."""
+    e_max_relative: float | None = None
+    """Scale-free e_max (core/itm_resolution.py): when set to ρ, e_max = ρ · the median pairwise L2 distance
+    of the last 256 latents, refreshed every 64 states; None: the absolute ``e_max`` (paper, released)."""
     itm_distance: Literal["l2", "squared"] = "l2"
     """Distance compared with e_max: l2 (released code) or squared L2 (paper text, Section 2.3.1)."""
     lp_sigma: int = 40
@@ -501,6 +504,7 @@ def check_config(config: Config) -> None:
         "run.max_wall_s",
         "run.checkpoint_every_s",
         "env.fixed_positions",
+        "dual.e_max_relative",
     ):
         if value(key) is not None and value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0 or none)")

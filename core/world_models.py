@@ -26,6 +26,7 @@ import torch
 from core.capacity import grown_capacity
 from core.config import DualConfig
 from core.itm import InstantaneousTopologicalMap
+from core.itm_resolution import RelativeResolution
 from core.learning_progress import LearningProgress
 from core.model_bank import ModelBank
 
@@ -60,6 +61,11 @@ class LocalWorldModels:
             InstantaneousTopologicalMap(latent_dim, dual.e_max, dual.itm_distance, initial_capacity=capacity)
             if regions else None
         )
+        self.resolution = (
+            RelativeResolution(dual.e_max_relative, latent_dim)
+            if regions and dual.e_max_relative is not None
+            else None
+        )
         self.bank = ModelBank(
             latent_dim=latent_dim,
             action_dim=action_dim,
@@ -89,6 +95,8 @@ class LocalWorldModels:
         """Update the map with φ_t and return the best-matching node (0 for the global model)."""
         if self.itm is None:
             return 0
+        if self.resolution is not None:
+            self._set_resolution(self.resolution.observe(phi))
         events = self.itm.update(phi)
         if events.removed:
             self._reset(list(events.removed))
@@ -98,6 +106,11 @@ class LocalWorldModels:
             if self._memory is not None:
                 self._memory.reset(list(events.added))
         return events.winner
+
+    def _set_resolution(self, distance: float | None) -> None:
+        """Set the ITM's e_max to the L2 threshold `distance` (squared if the map compares squared ones)."""
+        if distance is not None and self.itm is not None:
+            self.itm.e_max = distance if self.itm.distance == "l2" else distance * distance
 
     def _reset(self, nodes: list[int]) -> None:
         self.lp.reset_nodes(nodes)
@@ -171,6 +184,8 @@ class LocalWorldModels:
             state["itm"] = self.itm.state_dict()
         if self._memory is not None:
             state["memory"] = self._memory.state_dict()
+        if self.resolution is not None:
+            state["resolution"] = self.resolution.state_dict()
         state["generator"] = {"state": self.bank.generator.get_state()}
         return state
 
@@ -181,6 +196,9 @@ class LocalWorldModels:
             self.itm.load_state_dict(state["itm"])
         if self._memory is not None:
             self._memory.load_state_dict(state["memory"])
+        if self.resolution is not None:
+            self.resolution.load_state_dict(state["resolution"])
+            self._set_resolution(self.resolution.current)
         self.bank.generator.set_state(state["generator"]["state"])
 
 

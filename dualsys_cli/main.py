@@ -7,7 +7,19 @@ from __future__ import annotations
 
 import typer
 
-from dualsys_cli import bench, deploy, env, experiment, jobs, registry_cmd, serve, sim2real_cmd, train
+from dualsys_cli import (
+    bench,
+    deploy,
+    diagnose,
+    env,
+    experiment,
+    experiments_jobs,
+    jobs,
+    registry_cmd,
+    serve,
+    sim2real_cmd,
+    train,
+)
 
 app = typer.Typer(
     name="dualsys",
@@ -17,10 +29,12 @@ app = typer.Typer(
 )
 app.add_typer(env.app, name="env")
 app.add_typer(bench.app, name="bench")
+app.add_typer(diagnose.app, name="diagnose")
 app.command("train")(train.train_command)
 app.add_typer(experiment.app, name="experiment")
 app.command("serve")(serve.serve_command)
 app.add_typer(jobs.app, name="jobs")
+app.add_typer(experiments_jobs.app, name="experiments")
 app.add_typer(registry_cmd.app, name="registry")
 app.command("export")(deploy.export_command)
 app.command("eval")(deploy.eval_command)

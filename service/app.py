@@ -21,7 +21,7 @@ from registry.artifact_store import ArtifactStore
 from registry.database import Database
 from service.api.deps import ServiceState
 from service.api.errors import install_error_handlers
-from service.api.routes import health, jobs, policies
+from service.api.routes import experiments, health, jobs, policies
 from service.api.size_limit import BodySizeLimit
 from service.migrate import upgrade_service
 from service.schemas.specs import warm_up_validators
@@ -68,6 +68,7 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
     install_error_handlers(app)
     app.include_router(jobs.router)
     app.include_router(policies.router)
+    app.include_router(experiments.router)
     app.include_router(health.router)
     install_dashboard(app)  # the web dashboard under /ui (service/ui/)
     return app

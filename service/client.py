@@ -102,3 +102,24 @@ class ServiceClient:
 
     def set_alias(self, name: str, alias: str, version: int) -> dict[str, Any]:
         return self._call("PUT", f"/policies/{name}/aliases/{alias}", json={"version": version})
+
+    # experiments
+    def submit_experiment(self, content: str, workers: int = 1) -> dict[str, Any]:
+        return self._call("POST", "/experiments", json={"content": content, "workers": workers})
+
+    def experiment(self, experiment_id: int, *, report: bool = True) -> dict[str, Any]:
+        params = {"report": "true" if report else "false"}
+        return self._call("GET", f"/experiments/{experiment_id}", params=params)
+
+    def cancel_experiment(self, experiment_id: int) -> dict[str, Any]:
+        return self._call("DELETE", f"/experiments/{experiment_id}")
+
+    def artifact(self, job_id: int, name: str) -> bytes:
+        """The bytes of one file of a job's run directory."""
+        try:
+            response = self._http.get(f"/jobs/{job_id}/artifacts/{name}")
+        except httpx.HTTPError as error:
+            raise ServiceCallError(f"cannot reach the dualsys service at {self.url}: {error}") from error
+        if response.status_code >= 400:
+            raise ServiceCallError(f"job {job_id} has no file {name} (HTTP {response.status_code})")
+        return response.content

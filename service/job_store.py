@@ -15,14 +15,14 @@ from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import delete, func, select, update
+from sqlalchemy import ColumnElement, delete, func, or_, select, update
 from sqlalchemy.exc import IntegrityError
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, aliased
 
 from registry.database import Database
 from registry.models import utc_now
 from service.errors import JobConflict, JobNotFound
-from service.models import FINISHED_STATUSES, Job, JobArtifact, JobMetric
+from service.models import FINISHED_STATUSES, Experiment, Job, JobArtifact, JobMetric
 
 CLAIM_RETRIES = 20
 
@@ -108,13 +108,25 @@ def list_jobs(
         return rows, int(connection.scalar(counter) or 0)
 
 
+def _experiment_has_room() -> ColumnElement[bool]:
+    """A job of its own, or a cell whose experiment runs fewer cells than its `workers`."""
+    sibling = aliased(Job)
+    running = (
+        select(func.count())
+        .where(sibling.experiment_id == Job.experiment_id, sibling.status == "running")
+        .scalar_subquery()
+    )
+    workers = select(Experiment.workers).where(Experiment.id == Job.experiment_id).scalar_subquery()
+    return or_(Job.experiment_id.is_(None), running < workers)
+
+
 def claim_next_job(database: Database, *, owner: str, pid: int | None = None) -> ClaimedJob | None:
     """Atomically move the oldest queued job to running under `owner`; None if the queue is empty."""
     for _ in range(CLAIM_RETRIES):
         with database.write() as session:
             candidate = session.scalar(
                 select(Job.id)
-                .where(Job.status == "queued")
+                .where(Job.status == "queued", _experiment_has_room())
                 .order_by(Job.id)
                 .limit(1)
                 .with_for_update(skip_locked=True)

@@ -7,6 +7,10 @@
   that repeats episodes overwrites instead of doubling them.
 - `job_artifacts`: one record per file of the job's run directory (checkpoints recorded as they are
   written), primary key (job_id, name), upserted on change.
+- `experiments`: one row per submitted experiment file (`core.experiments`); its cells are ordinary
+  `train` jobs with `experiment_id` set, whose run directories form the experiment's folder
+  `experiments/<id>/<name>/<label>/<reward>/seed-<s>`, so the library's report reads them as they are.
+  At most `workers` of an experiment's cells run at once (the claim checks it).
 """
 
 from __future__ import annotations
@@ -61,6 +65,27 @@ class Job(ServiceBase):
     run_dir: Mapped[str] = mapped_column(Text, default="")
     """The job's run directory relative to the artifact root (`jobs/<id>`)."""
     idempotency_key: Mapped[str | None] = mapped_column(String(128), default=None, unique=True)
+    experiment_id: Mapped[int | None] = mapped_column(Integer, default=None, index=True)
+    """The experiment (`experiments.id`) this job is a cell of (None: a job of its own). No foreign key:
+    adding one to SQLite's jobs table would copy the table, and experiments are never deleted."""
+    cell: Mapped[str | None] = mapped_column(String(255), default=None)
+    """The cell's key within its experiment (`label/reward/seed-s`)."""
+
+
+class Experiment(ServiceBase):
+    __tablename__ = "experiments"
+    __table_args__ = ({"sqlite_autoincrement": True},)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    name: Mapped[str] = mapped_column(String(128))
+    spec: Mapped[dict[str, Any]] = mapped_column(default=dict)
+    """The validated experiment file, normalised (`ExperimentSpec.to_dict`)."""
+    workers: Mapped[int] = mapped_column(Integer, default=1)
+    """How many of its cells may run at once."""
+    directory: Mapped[str] = mapped_column(Text, default="")
+    """The experiment folder relative to the artifact root (`experiments/<id>/<name>`)."""
+    cancel_requested: Mapped[bool] = mapped_column(Boolean, default=False)
+    created_at: Mapped[datetime] = mapped_column(default=utc_now)
 
 
 class JobMetric(ServiceBase):

@@ -69,14 +69,14 @@ def owner_is_dead_here(owner: str | None) -> bool:
     return host == socket.gethostname() and pid_text.isdigit() and not pid_alive(int(pid_text))
 
 
-def _is_our_worker(pid: int, job_id: int) -> bool:
+def _is_our_worker(pid: int, run_dir: Path) -> bool:
     """A `service.worker` process whose working directory is the job's run directory (Linux /proc)."""
     try:
         command = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
         cwd = Path(os.readlink(f"/proc/{pid}/cwd"))
     except OSError:
         return False
-    return b"service.worker" in command and cwd.parts[-2:] == ("jobs", str(job_id))
+    return b"service.worker" in command and cwd == run_dir
 
 
 class Supervisor:
@@ -199,7 +199,11 @@ class Supervisor:
 
     def _kill_local_worker(self, job: Job) -> None:
         """Make sure no stray worker of a lost job still runs on this host before it is re-queued."""
-        if job.worker_pid and pid_alive(job.worker_pid) and _is_our_worker(job.worker_pid, job.id):
+        if (
+            job.worker_pid
+            and pid_alive(job.worker_pid)
+            and _is_our_worker(job.worker_pid, self.store.confine(job.run_dir))
+        ):
             with contextlib.suppress(OSError):
                 os.kill(job.worker_pid, signal.SIGKILL)
 

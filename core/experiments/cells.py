@@ -4,6 +4,7 @@ Layout::
 
     OUT/<experiment>/
       experiment.yaml                          the normalised experiment file of the last run
+      workers.log                              local worker processes' output (warnings, crashes)
       report.md, *.png                         written by ``dualsys experiment report``
       <label>/<reward>/seed-<s>/               a run directory as ``dualsys train`` writes it
 

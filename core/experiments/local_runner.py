@@ -23,6 +23,7 @@ from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
+from pathlib import Path
 from typing import Any
 
 from core.experiments.cells import Cell
@@ -51,12 +52,17 @@ def default_workers() -> int:
 # -- worker process -----------------------------------------------------------------------------------
 
 
-def _worker_main(conn: Connection, stop_event: Any) -> None:
-    """Worker loop: receive a Cell (None: exit), run it, send events back."""
+def _worker_main(conn: Connection, stop_event: Any, log_path: str) -> None:
+    """Worker loop: receive a Cell (None: exit), run it, send events back.
+
+    The worker's stdout and stderr go to ``log_path`` (appended; PyBullet's banner and warnings would
+    tear the parent's live display); what the parent needs arrives through ``conn``.
+    """
     interrupted = False
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)  # C libraries' chatter (PyBullet's banner) would tear the parent's live display
-    os.close(devnull)
+    log = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+    os.dup2(log, 1)
+    os.dup2(log, 2)
+    os.close(log)
 
     def on_sigint(signum: int, frame: Any) -> None:
         nonlocal interrupted
@@ -151,10 +157,14 @@ def run_local(
     progress: ExperimentProgress,
     *,
     workers: int,
+    log_path: Path,
     progress_callback: ProgressCallback | None = None,
     should_stop: Callable[[], bool] | None = None,
 ) -> None:
-    """Run ``cells`` on ``workers`` processes; every outcome lands in ``progress`` (status + message)."""
+    """Run ``cells`` on ``workers`` processes; every outcome lands in ``progress`` (status + message).
+
+    The workers' output is appended to ``log_path``.
+    """
     context = multiprocessing.get_context("spawn")
     stop_event = context.Event()
     queue: deque[Cell] = deque(cells)
@@ -168,7 +178,10 @@ def run_local(
     def spawn() -> _Worker:
         parent_end, child_end = context.Pipe(duplex=True)
         process = context.Process(
-            target=_worker_main, args=(child_end, stop_event), name="dualsys-experiment-worker", daemon=True
+            target=_worker_main,
+            args=(child_end, stop_event, str(log_path)),
+            name="dualsys-experiment-worker",
+            daemon=True,
         )
         with _environment(SINGLE_THREAD_ENV):
             process.start()

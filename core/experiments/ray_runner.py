@@ -32,16 +32,19 @@ STOP_GRACE_S = 60.0
 
 def _cell_task(cell: Cell) -> dict[str, Any]:
     """Body of one Ray task: run the cell single-threaded; returns its summary and where it ran."""
+    import ray
     import torch
 
     from core.experiments.cells import run_cell
 
     torch.set_num_threads(1)
     summary = run_cell(cell, command=f"dualsys experiment run --ray ({cell.experiment}: {cell.key})")
+    node = ray.get_runtime_context().get_node_id()
     return {
         "stopped": bool(summary.get("stopped")),
         "steps": summary.get("steps"),
-        "worker": f"{socket.gethostname()}:{os.getpid()}",
+        "worker": f"{socket.gethostname()} node {node[:8]} pid {os.getpid()}",
+        "node": node,
     }
 
 

@@ -24,6 +24,9 @@ from core.experiments.progress import ExperimentProgress, ProgressCallback
 from core.experiments.spec import ExperimentSpec
 from core.run_dir import atomic_write_text
 
+WORKER_LOG = "workers.log"
+"""Local workers' stdout/stderr, appended, in the experiment folder."""
+
 
 @dataclass
 class ExperimentPlan:
@@ -134,6 +137,7 @@ def run_experiment(
                 plan.to_run,
                 progress,
                 workers=max(1, min(workers or default_workers(), len(plan.to_run))),
+                log_path=plan.directory / WORKER_LOG,
                 progress_callback=progress_callback,
                 should_stop=should_stop,
             )

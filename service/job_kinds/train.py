@@ -34,6 +34,8 @@ def prepare_train(spec: BaseModel, registry: PolicyRegistry) -> Submission:
 def run_train(context: JobContext) -> dict[str, Any]:
     spec = context.spec
     assert isinstance(spec, TrainSpec)
+    if "cell" in context.resolved:
+        return run_experiment_cell(context)
     try:
         from core.trainer import train
     except ImportError as error:
@@ -57,3 +59,30 @@ def load_train_config(spec: TrainSpec):  # type: ignore[no-untyped-def]
     from core.config import load_config
 
     return load_config(spec.profile, spec.config_overrides())
+
+
+def run_experiment_cell(context: JobContext) -> dict[str, Any]:
+    """A cell of an experiment (service/experiment_store.py): `core.experiments.run_cell` on the cell's
+    own resolved config, in the cell's folder; it skips a done cell, resumes a partial one, else starts."""
+    try:
+        from core.experiments import Cell, run_cell
+    except ImportError as error:
+        raise JobKindUnavailable(
+            f"experiment cells need core.experiments.run_cell, which is not installed ({error})"
+        ) from error
+    cell = context.resolved["cell"]
+    summary = run_cell(
+        Cell(
+            experiment=cell["experiment"],
+            label=cell["label"],
+            algo=cell["algo"],
+            reward=cell["reward"],
+            seed=int(cell["seed"]),
+            run_dir=context.run_dir,
+            config=context.resolved["config"],
+        ),
+        should_stop=context.should_stop,
+        on_episode=context.emit,
+        command=f"dualsys experiments (service job {context.job_id}: {cell['experiment']} {cell['key']})",
+    )
+    return dict(summary or {})

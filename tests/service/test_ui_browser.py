@@ -48,12 +48,25 @@ def page(browser: Any, tmp_path: Path) -> Iterator[Callable[[str], None]]:
     browser.get("about:blank")  # stop the page's polling before the test's service goes away
 
 
+# Read in one script each, so a live refresh that replaces the element between "find" and "read"
+# cannot make a read stale.
 def _text(browser: Any, selector: str) -> str:
-    return browser.find_element("css selector", selector).text
+    script = "const e = document.querySelector(arguments[0]); return e ? e.innerText.trim() : '';"
+    return browser.execute_script(script, selector)
 
 
 def _attr(browser: Any, selector: str, name: str) -> str:
-    return browser.find_element("css selector", selector).get_attribute(name) or ""
+    script = "const e = document.querySelector(arguments[0]); return e ? e.getAttribute(arguments[1]) : '';"
+    return browser.execute_script(script, selector, name) or ""
+
+
+def _episode_and_text(browser: Any, selector: str) -> tuple[int, str]:
+    script = (
+        "const e = document.querySelector(arguments[0]);"
+        "return e ? [e.getAttribute('data-episode'), e.innerText.trim()] : ['0', ''];"
+    )
+    episode, text = browser.execute_script(script, selector)
+    return int(episode or 0), text
 
 
 def test_jobs_table_progress_moves_without_reload(
@@ -67,17 +80,18 @@ def test_jobs_table_progress_moves_without_reload(
         assert browser.current_url.endswith("/ui")
         browser.execute_script("window.__samePage = true")
         row = f'tr[data-job-id="{running["id"]}"] td.progress'
-        start = int(_attr(browser, row, "data-episode"))
+        start, _ = _episode_and_text(browser, row)
+        assert start >= 1
         page("jobs-before")
         moved = wait_for(
-            lambda: int(_attr(browser, row, "data-episode")) >= start + 3,
+            lambda: _episode_and_text(browser, row)[0] >= start + 3,
             timeout=60,
             what="the row's progress to move",
         )
         assert moved
         assert browser.execute_script("return window.__samePage === true"), "the page was reloaded"
-        episode = int(_attr(browser, row, "data-episode"))
-        assert _text(browser, row).endswith(f"{episode} / 400")
+        episode, text = _episode_and_text(browser, row)
+        assert text.endswith(f"{episode} / 400")
         assert _text(browser, f'tr[data-job-id="{running["id"]}"] .status') == "running"
         assert _text(browser, "#live-state") == "live"
         # a job submitted now appears at the top without a reload

@@ -57,6 +57,8 @@ class ExperimentResult:
     interrupted: dict[str, str]
     queued: list[str]
     wall_s: float
+    workers: dict[str, str] = field(default_factory=dict)
+    """Where each cell run by this call ran (``pid N``, or ``host node <id> pid N`` on Ray)."""
 
     @property
     def complete(self) -> bool:
@@ -74,6 +76,7 @@ class ExperimentResult:
             "queued": self.queued,
             "wall_s": self.wall_s,
             "complete": self.complete,
+            "workers": self.workers,
         }
 
 
@@ -157,4 +160,5 @@ def _result(plan: ExperimentPlan, progress: ExperimentProgress, wall_s: float) -
         interrupted={key: progress.cells[key].message for key in by_status.get("interrupted", [])},
         queued=by_status.get("queued", []) + by_status.get("running", []),
         wall_s=wall_s,
+        workers={key: state.worker for key, state in progress.cells.items() if state.worker},
     )

@@ -18,7 +18,7 @@ from tests.utils.jobs import job, metrics, submit, wait_progress, wait_status
 from tests.utils.live_service import LiveService, wait_for
 from tests.utils.registered import register_version
 
-pytestmark = pytest.mark.timeout(240)
+pytestmark = pytest.mark.timeout(420)
 # a refused REST call is logged by Chromium as a failed resource load; that is the test's point
 REFUSED = ("status of 401",)
 
@@ -234,7 +234,8 @@ def test_train_job_page_draws_greedy_success_and_dual_system_diagnostics(
     """A real (tiny) I2A training job: the trainer's own metric keys reach the browser's panels."""
     pytest.importorskip("core.trainer", reason="the trainer (core.trainer) is not installed")
     service = start_service()
-    with service.client() as client:
+    # the first train submission imports the trainer in the service: slow on a busy machine
+    with service.client(timeout=180) as client:
         trained = submit(
             client, "train", algo="i2a", reward="sparse", seed=1, episodes=20, overrides=TINY_I2A
         )

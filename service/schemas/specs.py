@@ -15,6 +15,7 @@ Unknown fields are refused (422 naming the field). `policy` takes `name`, `name@
 
 from __future__ import annotations
 
+import contextlib
 import re
 from typing import Literal
 
@@ -231,5 +232,7 @@ def warm_up_validators() -> None:
 
     _config_profiles()
     _algo_names()
+    with contextlib.suppress(ImportError):  # POST /experiments validates with it
+        import core.experiments  # noqa: F401
     gc.collect()
     gc.freeze()

@@ -71,7 +71,7 @@ class LiveService:
     def artifacts(self) -> Path:
         return Path(self.settings["artifacts"])
 
-    def start(self, timeout: float = 60.0) -> LiveService:
+    def start(self, timeout: float = 180.0) -> LiveService:
         self.port = free_port()
         self.starts += 1
         environment = {k: v for k, v in os.environ.items() if not k.startswith("DUALSYS_")}

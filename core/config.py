@@ -165,7 +165,7 @@ class DualConfig:
     """ITM mapping resolution e_max (Section 4.1.1)."""
     e_max_relative: float | None = None
     """Scale-free e_max (core/itm_resolution.py): when set to ρ, e_max = ρ · the median pairwise L2 distance
-    of the last 256 latents, refreshed every 64 states; None: the absolute ``e_max`` (paper, released)."""
+    among 256 of the last 2048 latents, refreshed every 256 states; None: absolute e_max (paper, released)."""
     itm_distance: Literal["l2", "squared"] = "l2"
     """Distance compared with e_max: l2 (released code) or squared L2 (paper text, Section 2.3.1)."""
     lp_sigma: int = 40

@@ -18,7 +18,7 @@ from core.world_models import LocalWorldModels
 def test_relative_e_max_is_rho_times_the_median_pairwise_distance():
     rng = np.random.default_rng(0)
     latents = rng.normal(scale=0.01, size=(64, 8))
-    resolution = RelativeResolution(0.5, latent_dim=8, window=64, every=64)
+    resolution = RelativeResolution(0.5, latent_dim=8, window=64, every=64, sample=64)
     outputs = [resolution.observe(phi) for phi in latents]
     assert outputs[:-1] == [None] * 63
     diffs = latents[:, None] - latents[None]
@@ -32,7 +32,7 @@ def _world(*overrides: str) -> LocalWorldModels:
 
 
 def test_absolute_e_max_keeps_a_small_latent_cloud_in_two_nodes_and_relative_makes_regions():
-    latents = torch.from_numpy(np.random.default_rng(1).normal(scale=0.01, size=(512, 8))).float()
+    latents = torch.from_numpy(np.random.default_rng(1).normal(scale=0.01, size=(1024, 8))).float()
     absolute, relative = _world(), _world("dual.e_max_relative=0.8")
     for phi in latents:
         absolute.observe_state(phi)
@@ -43,7 +43,7 @@ def test_absolute_e_max_keeps_a_small_latent_cloud_in_two_nodes_and_relative_mak
 
 
 def test_relative_resolution_survives_a_checkpoint():
-    latents = torch.from_numpy(np.random.default_rng(2).normal(size=(200, 8))).float()
+    latents = torch.from_numpy(np.random.default_rng(2).normal(size=(600, 8))).float()
     world = _world("dual.e_max_relative=1.0")
     for phi in latents:
         world.observe_state(phi)
@@ -51,6 +51,10 @@ def test_relative_resolution_survives_a_checkpoint():
     restored.load_state_dict(world.state_dict())
     assert restored.itm.e_max == world.itm.e_max
     assert restored.resolution.current == world.resolution.current
+    for phi in latents[:300]:  # the restored tracker continues exactly (same window, same sampling)
+        world.observe_state(phi)
+        restored.observe_state(phi)
+    assert restored.itm.e_max == world.itm.e_max and restored.num_nodes == world.num_nodes
 
 
 def test_bad_relative_e_max_is_a_config_error():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import typer
 
@@ -69,6 +70,19 @@ def bench_train(
             steps=steps,
             rounds=rounds,
         )
+    _emit(result, as_json)
+
+
+@app.command("experiment")
+def bench_experiment(
+    file: Path = typer.Option(None, "--file", help="Experiment file (default: experiments/smoke.yaml)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
+) -> None:
+    """Wall-clock time of the smoke experiment on 1 and on 2 local workers (goal: speedup ≥ 1.7)."""
+    from bench.experiment_speed import SMOKE, measure
+
+    with user_errors():
+        result = measure(file or SMOKE)
     _emit(result, as_json)
 
 

@@ -49,8 +49,10 @@ class ExperimentPublic(BaseModel):
     cells: CellCounts
     jobs: list[CellPublic]
     report: dict[str, Any] | None = Field(
-        description="`core.experiments.build_report` on the cells' run directories, once a cell is done."
+        description="`core.experiments.build_report` on the cells' run directories, once a cell is done "
+        "(its `done` says how many cells it covers)."
     )
+    report_pending: bool = Field(description="A report of more finished cells is being computed (ask again).")
 
 
 class ExperimentSummary(BaseModel):

@@ -88,7 +88,18 @@ def test_experiment_cells_run_as_jobs_and_report_like_the_library(
         assert [j["cell"] for j in created["jobs"]] == ["DDPG/sparse/seed-0", "CACLA/sparse/seed-0"]
         done = _wait_finished(client, created["id"], timeout=1500)
         assert done["status"] == "succeeded" and done["cells"]["done"] == 2, done
-        shown = client.get(f"/experiments/{created['id']}").json()
+        # the report is computed in the background once per set of finished cells
+        shown = wait_for(
+            lambda: (
+                (e := client.get(f"/experiments/{created['id']}").json())["report"]
+                and e["report"]["done"] == 2
+                and not e["report_pending"]
+                and e
+            ),
+            timeout=900,
+            interval=1.0,
+            what="the report of both cells",
+        )
         jobs = [job(client, j["job_id"]) for j in shown["jobs"]]
 
     # every cell is an ordinary train job in the experiment's folder; one at a time (workers: 1), though

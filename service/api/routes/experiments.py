@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import threading
 from typing import Annotated, Any
 
@@ -20,6 +21,7 @@ from service.schemas.experiments import (
     ExperimentSummary,
 )
 
+log = logging.getLogger("dualsys.service")
 router = APIRouter(prefix="/experiments", tags=["experiments"])
 ExperimentId = Annotated[int, Path(ge=1, le=2**63 - 1, description="Experiment id.")]
 ERRORS = {
@@ -29,33 +31,52 @@ ERRORS = {
     422: {"model": ErrorPublic},
 }
 
-_reports: dict[tuple[int, tuple[int, ...]], dict[str, Any]] = {}
+_reports: dict[int, tuple[tuple[int, ...], dict[str, Any]]] = {}
+"""Per experiment: the finished cells the latest report covers, and the report."""
+_computing: set[tuple[int, tuple[int, ...]]] = set()
 _reports_lock = threading.Lock()
 
 
-def _report(state: ServiceState, current: experiment_store.ExperimentState) -> dict[str, Any] | None:
-    """The library's report of the finished cells, computed once per set of finished cells (its
-    bootstrap takes a while) and kept for the latest set of each experiment."""
-    from core.experiments import build_report
-
+def _report(state: ServiceState, current: experiment_store.ExperimentState) -> tuple[dict | None, bool]:
+    """(report, pending): the library's report of the finished cells, and whether a newer one is being
+    computed. Its bootstrap takes seconds of CPU, so it runs in a background thread once per set of
+    finished cells, and a request gets the latest finished report at once (None before the first)."""
     done = tuple(job.id for job in current.jobs if job.status == "succeeded")
     if not done:
-        return None
-    key = (current.experiment.id, done)
+        return None, False
+    experiment_id = current.experiment.id
+    key = (experiment_id, done)
     with _reports_lock:
-        if key in _reports:
-            return _reports[key]
-    report = build_report(state.registry.store.confine(current.experiment.directory))
+        covered, report = _reports.get(experiment_id, ((), None))
+        if covered == done:
+            return report, False
+        if key not in _computing:
+            _computing.add(key)
+            folder = state.registry.store.confine(current.experiment.directory)
+            threading.Thread(
+                target=_compute_report, args=(key, folder), name="dualsys-report", daemon=True
+            ).start()
+    return report, True
+
+
+def _compute_report(key: tuple[int, tuple[int, ...]], folder: Any) -> None:
+    from core.experiments import build_report
+
+    try:
+        report = build_report(folder)
+    except Exception:  # a report of a half-written folder: the next request tries again
+        log.exception("report of experiment %s failed", key[0])
+        report = None
     with _reports_lock:
-        for old in [k for k in _reports if k[0] == current.experiment.id]:
-            del _reports[old]
-        _reports[key] = report
-    return report
+        _computing.discard(key)
+        if report is not None and len(key[1]) >= len(_reports.get(key[0], ((), None))[0]):
+            _reports[key[0]] = (key[1], report)
 
 
 def _public(state: ServiceState, experiment_id: int, *, with_report: bool) -> ExperimentPublic:
     current = experiment_store.get_experiment(state.database, experiment_id=experiment_id)
     experiment, counts = current.experiment, current.counts
+    report, pending = _report(state, current) if with_report else (None, False)
     return ExperimentPublic(
         id=experiment.id,
         name=experiment.name,
@@ -83,7 +104,8 @@ def _public(state: ServiceState, experiment_id: int, *, with_report: bool) -> Ex
             )
             for job in current.jobs
         ],
-        report=_report(state, current) if with_report else None,
+        report=report,
+        report_pending=pending,
     )
 
 

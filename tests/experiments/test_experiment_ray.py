@@ -117,6 +117,7 @@ def run_cli(env: dict[str, str], *args: str) -> subprocess.CompletedProcess[str]
     return subprocess.run(command, env=env, capture_output=True, text=True, timeout=600)
 
 
+@pytest.mark.timeout(1800)  # four cells on a shared, loaded 2-core machine: minutes waiting for a core
 def test_two_node_cluster_runs_a_tiny_grid(ray_cluster, tmp_path, write_experiment) -> None:
     address, env = ray_cluster
     path = write_experiment(

@@ -28,6 +28,10 @@ from service.settings import ServiceSettings
 
 log = logging.getLogger("dualsys.service")
 PR_SET_PDEATHSIG = 1
+API_PROCESS_HEALTHCHECK_S = 120
+"""How long uvicorn's process manager waits for an API process to answer its ping before killing and
+replacing it. Its default (5 s) is shorter than importing the app takes on a loaded 2-core machine,
+where it killed every starting process for minutes."""
 
 
 def serve(settings: ServiceSettings) -> None:
@@ -68,6 +72,7 @@ def serve_replicas(settings: ServiceSettings) -> None:
         functools.partial(api_replica, replica),
         factory=True,
         workers=settings.api_processes,
+        timeout_worker_healthcheck=API_PROCESS_HEALTHCHECK_S,
         **_uvicorn_options(settings),
     )
     config.configure_logging()

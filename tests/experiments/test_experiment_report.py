@@ -88,6 +88,10 @@ def test_numbers_equal_a_hand_computation(made_up: Path) -> None:
     assert m["auc"]["mean"] == pytest.approx(np.mean(auc))
     assert m["auc_from_minus1"]["iqm"] == pytest.approx(((auc[1] + 1) / 2 + (auc[2] + 1) / 2) / 2)
     assert m["success"]["iqm"] == pytest.approx(0.5) and m["seeds"] == 4
+    # Training success: share of grasps (return > 0 here) among the last 500 training episodes, per seed.
+    train = [float(v > 0) for v in FINAL["M"]]
+    assert m["train_success"]["mean"] == pytest.approx(np.mean(train))
+    assert report["methods"]["B"]["sparse"]["train_success"]["mean"] == 0.0  # every B return is ≤ 0
     for metric in ("auc", "final_perf", "success", "auc_from_minus1"):
         low, high = m[metric]["ci"]
         assert low <= m[metric]["iqm"] <= high

@@ -17,9 +17,10 @@ import time
 from datetime import UTC, datetime
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Path, Query
+from fastapi import APIRouter, Path, Query, Request
 from fastapi.responses import HTMLResponse, RedirectResponse
 from sqlalchemy import func, select
+from starlette.routing import NoMatchFound
 
 from registry.errors import RegistryError
 from registry.models import Policy, PolicyVersion
@@ -28,7 +29,7 @@ from service.api.deps import StateDep
 from service.errors import JobNotFound
 from service.models import JOB_STATUSES, Job
 from service.schemas.jobs import JobKindName
-from service.ui.rendering import render
+from service.ui.rendering import environment, render
 from service.ui.views import SuccessTracker, diagnostic_groups, flatten_config, job_row, summary_success
 
 PAGE_SIZE = 50
@@ -250,12 +251,47 @@ def _existing_jobs(state: Any, job_ids: set[int]) -> set[int]:
         return set(session.scalars(select(Job.id).where(Job.id.in_(job_ids))))
 
 
+@router.get("/experiments", response_class=HTMLResponse)
+def experiments_page(request: Request) -> HTMLResponse:
+    """Experiments, newest first (the page's script reads `GET /experiments`)."""
+    started = time.perf_counter()
+    if not experiments_api(request.app):
+        return _not_found(started, "this service has no experiments API")
+    return _page("experiments.html", started, title="Experiments", nav="experiments")
+
+
+@router.get("/experiments/{experiment_id}", response_class=HTMLResponse)
+def experiment_page(
+    experiment_id: Annotated[int, Path(ge=1, le=2**63 - 1)], request: Request
+) -> HTMLResponse:
+    """One experiment: its grid of cells and their states, the report's table and figure; cancel."""
+    started = time.perf_counter()
+    if not experiments_api(request.app):
+        return _not_found(started, "this service has no experiments API")
+    return _page(
+        "experiment.html",
+        started,
+        title=f"Experiment {experiment_id}",
+        nav="experiments",
+        page_data={"experiment_id": experiment_id},
+    )
+
+
+def experiments_api(app: Any) -> bool:
+    """Whether the app serves the experiments endpoints (`GET /experiments`, route `list_experiments`)."""
+    try:
+        return app.url_path_for("list_experiments") == "/experiments"
+    except NoMatchFound:
+        return False
+
+
 def install_dashboard(app: Any) -> None:
     """Mount the dashboard's pages, its static files and the `/` redirect on the FastAPI app."""
     from service.ui.rendering import static_files
 
     app.include_router(router)
     app.include_router(root_router)
+    environment().globals["experiments_enabled"] = lambda: experiments_api(app)
     app.mount("/ui/static", static_files(), name="ui-static")
     app.add_middleware(_SecurityHeaders)
 

@@ -228,6 +228,7 @@ TINY_I2A = {
 }
 
 
+@pytest.mark.timeout(900)
 def test_train_job_page_draws_greedy_success_and_dual_system_diagnostics(
     browser: Any, page: Callable[[str], None], start_service: Callable[..., LiveService]
 ) -> None:
@@ -237,23 +238,23 @@ def test_train_job_page_draws_greedy_success_and_dual_system_diagnostics(
     # the first train submission imports the trainer in the service: slow on a busy machine
     with service.client(timeout=180) as client:
         trained = submit(
-            client, "train", algo="i2a", reward="sparse", seed=1, episodes=20, overrides=TINY_I2A
+            client, "train", algo="i2a", reward="sparse", seed=1, episodes=10, overrides=TINY_I2A
         )
         wait_progress(client, trained["id"], 1, timeout=180)
         browser.get(f"{service.url}/ui/jobs/{trained['id']}")
-        wait_status(client, trained["id"], {"succeeded"}, timeout=180)
+        wait_status(client, trained["id"], {"succeeded"}, timeout=500)  # niced jobs crawl on a busy machine
         wait_for(lambda: _text(browser, "#job-status") == "succeeded", timeout=30, what="the page's status")
-        wait_for(lambda: _attr(browser, "#curve", "data-points") == "20", timeout=30, what="all 20 episodes")
+        wait_for(lambda: _attr(browser, "#curve", "data-points") == "10", timeout=30, what="all 10 episodes")
         evaluations = [
             m for m in metrics(client, trained["id"]) if m["data"].get("eval/success_rate") is not None
         ]
-        assert len(evaluations) >= 4
+        assert len(evaluations) >= 2
         dots = browser.find_elements("css selector", "#curve svg .dots.succ circle")
         assert len(dots) == len(evaluations)  # one greedy-success point per evaluation
         keys = [_attr(browser, "#diagnostics", "data-points")] + [
             e.get_attribute("data-keys") for e in browser.find_elements("css selector", "#diagnostics .panel")
         ]
-        assert keys[0] == "20"
+        assert keys[0] == "10"
         for wanted in (
             "dual/model_error",
             "dual/mb_decisions dual/mf_decisions",
@@ -265,6 +266,6 @@ def test_train_job_page_draws_greedy_success_and_dual_system_diagnostics(
             "css selector", '#diagnostics .panel[data-keys^="dual/mb_decisions"]'
         )
         assert len(decisions.find_elements("css selector", "path.line")) == 2  # model-based and model-free
-        assert "greedy evaluation at episode 20" in _text(browser, "#job-success")
+        assert "greedy evaluation at episode 10" in _text(browser, "#job-success")
         page("train-job")
     assert console_errors(browser) == []

@@ -56,6 +56,10 @@ def test_root_redirects_and_pages_answer_with_security_headers(
         assert missing.status_code == 404 and "no job with id 987654" in missing.text
         assert client.get("/ui/jobs/99999999999999999999").status_code == 422  # not a 500
         assert client.get("/ui/policies/nothing-here").status_code == 404
+        # the experiments pages: shells whose script reads GET /experiments (test_ui_experiments.py)
+        assert '<a href="/ui/experiments">Experiments</a>' in jobs_page
+        assert client.get("/ui/experiments").status_code == 200
+        assert 'id="page-data">{"experiment_id": 3}' in client.get("/ui/experiments/3").text
         assert client.get("/ui?status=exploded").status_code == 404
         assert client.get("/ui?kind=nope").status_code == 404
         assert client.get("/ui/static/../app.py").status_code == 404

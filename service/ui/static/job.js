@@ -233,14 +233,15 @@
       return;
     }
     const win = windowFor(n);
-    const series = [
+    const series = win > 1 ? [
       { name: "episodic return", xs: rec.x, ys: rec.ret, cls: "raw", axis: "left" },
       { name: "return, mean of " + win, xs: rec.x, ys: smooth(rec.ret, win), cls: "ret", axis: "left" },
-    ];
+    ] : [{ name: "episodic return", xs: rec.x, ys: rec.ret, cls: "ret", axis: "left" }];
     if (rec.evalY.length) {
       series.push({ name: "greedy success", xs: rec.evalX, ys: rec.evalY, cls: "succ", axis: "right", dots: true });
     } else if (rec.success.some(function (v) { return v !== null; })) {
-      series.push({ name: "training success, mean of " + win, xs: rec.x, ys: smooth(rec.success, win),
+      series.push({ name: win > 1 ? "training success, mean of " + win : "training success", xs: rec.x,
+        ys: smooth(rec.success, win),
         cls: "succ dashed", axis: "right" });
     }
     const width = Math.max(320, curve.clientWidth || 800);

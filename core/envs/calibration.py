@@ -13,30 +13,10 @@ import numpy as np
 
 from core.envs.nico_grasp import NicoGraspEnv
 from core.envs.oracle import oracle_action
-
-Policy = Callable[[NicoGraspEnv, dict], np.ndarray]
+from core.envs.rollouts import Policy, rollout_rates
 
 CONSTANT_SHOULDER_GRID = tuple(round(-1.0 + 0.1 * i, 1) for i in range(21))
 """Shoulder values of the constant actions: −1 to 1 in steps of 0.1."""
-
-
-def rollout_rates(env: NicoGraspEnv, policy: Policy, episodes: int, seed: int = 0) -> dict[str, float]:
-    """Success and topple rates of `policy` over `episodes` episodes, episode i reset with seed + i."""
-    successes = toppled = steps = 0
-    for episode in range(episodes):
-        _, info = env.reset(seed=seed + episode)
-        done = False
-        while not done:
-            _, _, terminated, truncated, info = env.step(policy(env, info))
-            steps += 1
-            done = terminated or truncated
-        successes += int(info["success"])
-        toppled += int(info["toppled"])
-    return {
-        "success": successes / episodes,
-        "toppled": toppled / episodes,
-        "mean_steps": steps / episodes,
-    }
 
 
 def random_policy(seed: int) -> Policy:

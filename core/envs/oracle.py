@@ -11,6 +11,8 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
+from core.envs.rollouts import rollout_rates
+
 
 def oracle_action(env: gym.Env, info: dict | None = None) -> np.ndarray:
     """The oracle's action for the env's current state, from `info` (default: the env's last info)."""
@@ -28,20 +30,10 @@ def oracle_action(env: gym.Env, info: dict | None = None) -> np.ndarray:
 
 def run_oracle(env: gym.Env, episodes: int, seed: int = 0) -> dict:
     """Run the oracle for `episodes` seeded episodes; returns the success rate and outcome counts."""
-    successes = toppled = 0
-    steps = 0
-    for episode in range(episodes):
-        _, info = env.reset(seed=seed + episode)
-        done = False
-        while not done:
-            _, _, terminated, truncated, info = env.step(oracle_action(env, info))
-            steps += 1
-            done = terminated or truncated
-        successes += int(info["success"])
-        toppled += int(info["toppled"])
+    rates = rollout_rates(env, oracle_action, episodes, seed)
     return {
-        "oracle_success_rate": successes / episodes,
+        "oracle_success_rate": rates["success"],
         "episodes": episodes,
-        "toppled": toppled,
-        "mean_steps": steps / episodes,
+        "toppled": round(rates["toppled"] * episodes),
+        "mean_steps": rates["mean_steps"],
     }

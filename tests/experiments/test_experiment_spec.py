@@ -141,3 +141,16 @@ def test_a_new_algo_family_plugs_in_through_the_runner_registry():
         assert expand_cells(spec, "out")[0].config["run"] == {"algo": "probe-sac", "seed": 0, "steps": 100}
     finally:
         CELL_RUNNERS.pop("probe-sac")
+
+
+@pytest.mark.timeout(1800)  # spawns workers twice; minutes on a loaded shared machine
+def test_bench_experiment_contract(tmp_path, write_experiment):
+    """`dualsys bench experiment --json` on a two-cell grid: both timings and their ratio."""
+    import json
+
+    path = write_experiment(methods=[{"label": "DDPG", "algo": "ddpg"}], steps=30)
+    result = CliRunner().invoke(app, ["bench", "experiment", "--file", str(path), "--json"])
+    assert result.exit_code == 0, result.output
+    figures = json.loads(result.stdout.strip().splitlines()[-1])
+    assert figures["cells"] == 2 and figures["workers_1_s"] > 0 and figures["workers_2_s"] > 0
+    assert figures["speedup"] == pytest.approx(figures["workers_1_s"] / figures["workers_2_s"], abs=0.01)

@@ -136,14 +136,16 @@
     document.getElementById("cancel-box").hidden = FINISHED.indexOf(experiment.status) >= 0;
   }
 
-  function drawReport(report) {
+  function drawReport(report, pending) {
     const host = document.getElementById("report");
     if (!report) {
-      host.replaceChildren(node("p", "The report appears once a cell has finished.", "muted"));
+      host.replaceChildren(node("p", pending ? "computing the report of the finished cells…"
+        : "The report appears once a cell has finished.", "muted"));
       return;
     }
     const parts = [node("p", report.done + " of " + report.cells + " cells in the report" +
-      (report.missing && report.missing.length ? " (missing: " + report.missing.length + ")" : "") + ".", "muted")];
+      (report.missing && report.missing.length ? " (missing: " + report.missing.length + ")" : "") + "." +
+      (pending ? " A report with more finished cells is being computed." : ""), "muted")];
     (report.rewards || []).forEach(function (reward) {
       parts.push(node("h3", reward + " reward"));
       const table = node("table", null, "report");
@@ -217,6 +219,7 @@
   async function showExperiment() {
     const id = data.experiment_id;
     let doneBefore = -1;
+    let pending = false;
     let timer = null;
     async function refresh() {
       const result = await window.dualsys.api("GET", "/experiments/" + id + "?report=false");
@@ -227,12 +230,21 @@
       const experiment = result.body;
       drawHead(experiment);
       drawGrid(experiment);
-      if (experiment.cells.done !== doneBefore) {
+      if (experiment.cells.done !== doneBefore || pending) {
         doneBefore = experiment.cells.done;
+        // the service bootstraps the report in the background once per set of finished cells and answers
+        // the latest finished one with report_pending: ask again until it is current
         const full = await window.dualsys.api("GET", "/experiments/" + id);
-        if (full.ok) drawReport(full.body.report);
+        if (full.ok) {
+          pending = !!full.body.report_pending;
+          drawReport(full.body.report, pending);
+        } else {
+          pending = false;
+          document.getElementById("report").replaceChildren(
+            node("p", "report unavailable: " + full.message, "result refused"));
+        }
       }
-      const finished = FINISHED.indexOf(experiment.status) >= 0;
+      const finished = FINISHED.indexOf(experiment.status) >= 0 && !pending;
       if (!finished && timer === null) {
         timer = window.setInterval(function () { if (!document.hidden) refresh(); }, POLL_MS);
       } else if (finished && timer !== null) {

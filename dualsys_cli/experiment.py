@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import signal
 import time
 from pathlib import Path
 from typing import Any
@@ -85,6 +86,18 @@ class _ProgressView:
         return Group(header, table)
 
 
+
+def _stop_on_ctrl_c_and_term() -> None:
+    """Ctrl-C (SIGINT) and SIGTERM stop the grid with every cell resumable, whatever this process inherited:
+    a shell that starts a command in the background sets SIGINT to "ignore", which Python would keep, and a
+    batch system stops jobs with SIGTERM."""
+
+    def interrupt(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, interrupt)
+
 @app.command("run")
 def run_command(
     file: Path = typer.Argument(..., help="Experiment file (YAML), or the name of one in experiments/."),
@@ -104,6 +117,7 @@ def run_command(
 
     console = Console(stderr=True)
     view = _ProgressView()
+    _stop_on_ctrl_c_and_term()
     with user_errors():
         spec = load_experiment(resolve_experiment_file(file))
         try:

@@ -9,7 +9,8 @@
   const POLL_MS = 2000;
   const FINISHED = ["succeeded", "failed", "cancelled"];
   const METRICS = [
-    ["auc", "AuC"], ["auc_from_minus1", "AuC (from −1)"], ["final_perf", "Final Perf"], ["success", "Greedy success"],
+    ["auc", "AuC"], ["auc_from_minus1", "AuC (from −1)"], ["final_perf", "Final Perf"],
+    ["train_success", "Training success"], ["success", "Greedy success"],
   ];
 
   function node(tag, text, cls) {

@@ -61,27 +61,8 @@ class TrainerRunner:
         from core.config import check_config, load_config
         from core.experiments.spec import ExperimentError
 
-        items = [f"{key}={_raw(value)}" for key, value in {**spec.overrides, **method.overrides}.items()]
-        cell_keys = {
-            "run.algo": method.algo,
-            "run.seed": seed,
-            "run.steps": spec.steps,
-            "run.episodes": "none",
-            "run.max_wall_s": "none",
-            "run.eval_every": spec.eval_every,
-            "run.eval_episodes": spec.eval_episodes,
-            "run.num_threads": 1,
-            "env.reward_mode": reward,
-        }
-        if _has_env_level():
-            cell_keys["env.level"] = spec.level
-        elif spec.level != "released":
-            raise ExperimentError(
-                f"bad value for level: {spec.level!r} needs env.level, absent in core.config"
-            )
-        if method.ac is not None:
-            cell_keys["agent.ac"] = method.ac
-        items += [f"{key}={_raw(value)}" for key, value in cell_keys.items()]
+        extra = {"agent.ac": method.ac} if method.ac is not None else {}
+        items = cell_overrides(spec, method, reward, seed, algo=method.algo, extra=extra)
         try:
             config = resolve_algo(load_config(spec.profile, items))
             if method.ac is not None and config.agent.ac != method.ac:
@@ -132,12 +113,32 @@ def _raw(value: Any) -> str:
     return str(value)
 
 
-def _has_env_level() -> bool:
-    import dataclasses
-
-    from core.config import EnvConfig
-
-    return any(item.name == "level" for item in dataclasses.fields(EnvConfig))
+def cell_overrides(
+    spec: ExperimentSpec,
+    method: MethodSpec,
+    reward: str,
+    seed: int,
+    *,
+    algo: str,
+    extra: Mapping[str, Any] | None = None,
+) -> list[str]:
+    """The ``key=value`` overrides of one cell: the file's and the method's, then what the experiment sets
+    per cell (algo, seed, the env-step budget, evaluation, level, reward; single-threaded), then `extra`."""
+    cell_keys: dict[str, Any] = {
+        "run.algo": algo,
+        "run.seed": seed,
+        "run.steps": spec.steps,
+        "run.episodes": "none",
+        "run.max_wall_s": "none",
+        "run.eval_every": spec.eval_every,
+        "run.eval_episodes": spec.eval_episodes,
+        "run.num_threads": 1,
+        "env.reward_mode": reward,
+        "env.level": spec.level,
+        **(extra or {}),
+    }
+    merged = {**spec.overrides, **method.overrides}
+    return [f"{key}={_raw(value)}" for key, value in (*merged.items(), *cell_keys.items())]
 
 
 TRAINER_RUNNER = TrainerRunner()

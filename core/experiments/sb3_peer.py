@@ -68,7 +68,7 @@ from torch import nn
 
 from core.agent import generator_state, restore_generator
 from core.config import Config, ConfigError, NetConfig, check_config, resolve_level_defaults
-from core.experiments.runners import EpisodeCallback, _has_env_level, _raw, register_cell_runner
+from core.experiments.runners import EpisodeCallback, cell_overrides, register_cell_runner
 from core.metrics import area_under_curve, final_performance
 from core.nets import Encoder
 from core.run_dir import (
@@ -682,21 +682,7 @@ class SB3Runner:
             raise ExperimentError(
                 f"bad value for ac: method {method.label!r} ({self.name}) has no actor-update rule of ours"
             )
-        items = [f"{key}={_raw(value)}" for key, value in {**spec.overrides, **method.overrides}.items()]
-        cell_keys: dict[str, Any] = {
-            "run.algo": self.name,
-            "run.seed": seed,
-            "run.steps": spec.steps,
-            "run.episodes": "none",
-            "run.max_wall_s": "none",
-            "run.eval_every": spec.eval_every,
-            "run.eval_episodes": spec.eval_episodes,
-            "run.num_threads": 1,
-            "env.reward_mode": reward,
-        }
-        if _has_env_level():
-            cell_keys["env.level"] = spec.level
-        items += [f"{key}={_raw(value)}" for key, value in cell_keys.items()]
+        items = cell_overrides(spec, method, reward, seed, algo=self.name)
         try:
             config = load_config(spec.profile, items)
             check_config(config)

@@ -19,7 +19,6 @@ and how many grasp attempts an episode allows. Everything else — the 64×32 to
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 
@@ -41,10 +40,6 @@ class TaskLevel:
     """Hand modes the level admits."""
     attempts_per_episode: int | None
     """Grasp attempts an episode allows; a failed one past the limit ends the episode. None: unlimited."""
-
-    def start_rad(self) -> float:
-        low = self.shoulder_window_deg[0] if self.start_deg is None else self.start_deg
-        return math.radians(low)
 
 
 LEVELS: dict[str, TaskLevel] = {

@@ -133,7 +133,7 @@ class NicoGraspEnv(gym.Env):
         self.camera_shift = camera_shift if camera_shift is not None else CameraShift()
         self.render_mode = render_mode
         self.window_rad = (math.radians(low), math.radians(high))
-        start = math.radians(low) if self.level.start_deg is None else self.level.start_rad()
+        start = math.radians(low if self.level.start_deg is None else self.level.start_deg)
         self.start_rad = float(np.clip(start, *self.window_rad))
         self.attempts_per_episode = self.level.attempts_per_episode
         self.step_rad = math.radians(step_deg)

@@ -193,6 +193,12 @@ class DualConfig:
     """Samples per local-model update (released code: the one real transition)."""
     new_node_model: Literal["fresh", "parent"] = "fresh"
     """A new ITM node's model: freshly initialised (released code) or copied from its parent node."""
+    refit_every: int = 0
+    """Refit the local models every N real steps on ``refit_batch`` replayed transitions re-encoded by the
+    current encoder, each sample to its nearest node (core/world_models.py ``refit``): a remedy for the
+    latent drift of a jointly trained encoder, not in the paper. 0: never (paper, released code)."""
+    refit_batch: int = 256
+    """Transitions per refit step (one Eq. 5 Adam step of each node the batch touches)."""
     arbitration: Literal["lp", "model_free"] = "lp"
     """Meta-controller: LP-based arbitration (Alg. 2 lines 12-19), or ``model_free`` — an ablation that always
     acts with μ(φ) (no MPC, so no I2A imagination), keeping regions, local models and r_int."""
@@ -469,6 +475,7 @@ _POSITIVE_INTS = (
     "dual.pixel_buffer_size",
     "dual.latent_buffer_size",
     "dual.latent_batch_size",
+    "dual.refit_batch",
 )
 _NON_NEGATIVE = (
     "run.seed",
@@ -482,6 +489,7 @@ _NON_NEGATIVE = (
     "dual.plan_steps",
     "dual.fixed_horizon",
     "dual.cmc_horizon",
+    "dual.refit_every",
 )
 
 

@@ -28,7 +28,8 @@ Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_err
 of the real transitions), ``mb_decisions`` / ``mf_decisions`` (counts), ``horizon`` (mean H of the
 model-based decisions, NaN when none), ``itm_nodes``, ``imagined`` (latent transitions added),
 ``intrinsic_reward`` (mean r_int), ``plan_loss_drop`` (mean L_plan decrease over the K MPC steps),
-``plan_action_shift`` (mean max-abs difference between the executed MPC action and the actor's μ(φ_t)).
+``plan_action_shift`` (mean max-abs difference between the executed MPC action and the actor's μ(φ_t)),
+and with ``dual.refit_every`` set, ``refit_error`` (mean Eq. 8 error of the refit batches before the step).
 """
 
 from __future__ import annotations
@@ -61,6 +62,7 @@ class _EpisodeCounters:
         self.horizons: list[int] = []
         self.plan_drops: list[float] = []
         self.action_shifts: list[float] = []
+        self.refit_errors: list[float] = []
         self.mf_decisions = 0
         self.imagined = 0
 
@@ -180,6 +182,23 @@ class DualSystemAgent(ModelFreeAgent):
         super().observe(transition)  # line 24, with stored_reward
         self._pending_intrinsic = 0.0
         self._phi = None
+        refit_every = self.config.dual.refit_every
+        if refit_every and self.steps % refit_every == 0:
+            self._refit_models()
+
+    def _refit_models(self) -> None:
+        """``dual.refit_every`` (not in the paper): refit the local models to the current encoder's latents.
+
+        The encoder keeps training (Eq. 4), so the latents a node's model learned from drift away from what
+        f_ω now produces. Every ``refit_every`` real steps, ``refit_batch`` replayed real transitions are
+        re-encoded with the current encoder and each touched node takes one Eq. 5 step on them.
+        """
+        batch = self.replay.sample(self.config.dual.refit_batch, self.rng)
+        count = batch.obs.shape[0]
+        with torch.no_grad():
+            latents = self.learner.encode(torch.cat([batch.obs, batch.next_obs]).to(self.device)).cpu()
+        errors = self.world.refit(latents[:count], batch.action, batch.reward_ext, latents[count:])
+        self.counters.refit_errors.append(float(errors.mean()))
 
     # -- learning --------------------------------------------------------------------------------
     def learn_minibatch(self) -> dict[str, float]:
@@ -210,6 +229,8 @@ class DualSystemAgent(ModelFreeAgent):
             "dual/plan_loss_drop": _mean(c.plan_drops),
             "dual/plan_action_shift": _mean(c.action_shifts),
         })
+        if self.config.dual.refit_every:
+            out["dual/refit_error"] = _mean(c.refit_errors)
         if self.latent_replay is not None:
             out["charts/latent_replay_size"] = float(len(self.latent_replay))
         self.counters = _EpisodeCounters()

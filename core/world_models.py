@@ -160,6 +160,22 @@ class LocalWorldModels:
         errors = self.bank.update(nodes, phi, action, next_phi, reward_ext)
         return errors
 
+    def refit(
+        self, phi: torch.Tensor, action: torch.Tensor, reward_ext: torch.Tensor, next_phi: torch.Tensor
+    ) -> torch.Tensor:
+        """One Eq. 5 step of each node a batch of re-encoded real transitions touches (``dual.refit_every``).
+
+        Each sample goes to its nearest node (the map is not adapted, as in Alg. 1 line 5); each touched
+        node takes one Adam step on the mean loss of its samples. The learning-progress windows are left
+        alone: they hold the errors of the real transitions as they arrived. Returns the pre-update Eq. 8
+        errors ``[B]``, i.e. how far the models had drifted from the current encoder's latents.
+        """
+        if self.itm is None:
+            nodes = torch.zeros(phi.shape[0], dtype=torch.int64)
+        else:
+            nodes = torch.from_numpy(self.itm.nearest(phi))
+        return self.bank.update(nodes, phi, action, next_phi, reward_ext)
+
     # ------------------------------------------------------------------ queries
     def reliable(self, node: int) -> bool:
         """LP_{t,n} ≥ 0 (Section 2.3.2): the meta-controller may use the model-based system."""

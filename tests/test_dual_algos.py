@@ -303,3 +303,48 @@ def test_agent_state_round_trips_through_weights_only_load() -> None:
     assert len(clone.latent_replay) == len(agent.latent_replay)
     for _ in range(5):
         np.testing.assert_allclose(_step(clone, obs), _step(agent, obs), atol=1e-6)
+
+
+def test_refit_steps_each_nearest_node_once_and_leaves_the_rest_and_lp_alone() -> None:
+    config = load_config("default", ["dual.e_max=0.5"])
+    world = LocalWorldModels(config.dual, latent_dim=2, action_dim=1,
+                             generator=torch.Generator().manual_seed(0))
+    for point in ([0.0, 0.0], [3.0, 0.0], [0.0, 3.0]):
+        world.observe_state(torch.tensor(point))
+    nodes = world.itm.nearest(torch.tensor([[0.1, 0.0], [2.9, 0.1]]))
+    untouched = [n for n in world.itm.alive_ids() if n not in set(nodes.tolist())]
+    assert untouched
+    theta, lp = world.bank.theta.clone(), world.lp.state_dict()
+    phi = torch.tensor([[0.1, 0.0], [2.9, 0.1]])
+    action, reward, next_phi = torch.tensor([[0.5], [-0.5]]), torch.tensor([0.0, 1.0]), phi + 0.2
+    errors = world.refit(phi, action, reward, next_phi)
+    before = world.bank.errors(*_predict_with(world.bank, theta, nodes, phi, action), next_phi, reward)
+    torch.testing.assert_close(errors, before)  # pre-update Eq. 8 errors of each sample's nearest node
+    assert world.bank.steps[nodes].tolist() == [1, 1]
+    torch.testing.assert_close(world.bank.theta[untouched], theta[untouched])
+    assert all(torch.equal(v, lp[k]) for k, v in world.lp.state_dict().items())
+    for _ in range(200):
+        last = world.refit(phi, action, reward, next_phi)
+    assert bool((last < 0.5 * errors).all())  # repeated refits fit each node's model to its samples
+
+
+def _predict_with(bank, theta, nodes, phi, action):
+    saved = bank.theta
+    bank.theta = theta
+    try:
+        prediction = bank.predict(torch.as_tensor(nodes), phi, action)
+    finally:
+        bank.theta = saved
+    return prediction.next_latent, prediction.reward
+
+
+def test_agent_refits_every_n_real_steps_on_its_replay_and_reports_the_drift() -> None:
+    agent = _agent("im2c", "dual.refit_every=5", "dual.refit_batch=16")
+    obs = _obs(2)
+    agent.begin_episode(obs)
+    for _ in range(22):
+        _step(agent, obs)
+    assert len(agent.counters.refit_errors) == 4
+    diagnostics = agent.episode_diagnostics()
+    assert np.isfinite(diagnostics["dual/refit_error"])
+    assert "dual/refit_error" not in _agent("im2c").episode_diagnostics()

@@ -6,7 +6,10 @@ Scores of one finished cell, from its run directory:
   ``core.metrics.area_under_curve``, baseline 0 as the text defines it); ``auc_from_minus1`` — the same
   area measured from reward −1, the reading that fits the paper's Table 1 (see ``core.metrics``);
 * ``final_perf`` — Final Performance: mean episodic reward of the last 500 training episodes;
-* ``success`` — the final greedy evaluation's success rate (summary.json ``success_rate``).
+* ``success`` — the final greedy evaluation's success rate (summary.json ``success_rate``);
+* ``train_length`` — a diagnostic, not a score: the mean length in env steps of the last 500 training
+  episodes (from metrics.csv's ``global_step``). On a level where a failed grasp ends the episode, short
+  episodes mean the policy closes its hand before it has travelled (docs/results.md).
 
 Per (method, reward mode) over seeds: IQM with a 95% stratified-bootstrap CI, mean ± std
 (``core.experiments.statistics``), and each method's probability of improvement over its model-free
@@ -39,10 +42,13 @@ METRICS: dict[str, str] = {
     "final_perf": "Final Perf",
     "train_success": "Training success",
     "success": "Greedy success",
+    "train_length": "Episode length",
 }
 """Reported scores and their table names."""
-BOOTSTRAPPED = ("auc", "final_perf", "train_success", "success")
+BOOTSTRAPPED = ("auc", "final_perf", "train_success", "success", "train_length")
 """Scores with their own bootstrap (``auc_from_minus1`` is an affine map of ``auc``)."""
+DIAGNOSTICS = ("train_length",)
+"""Reported with IQM and CI, but neither better when higher nor compared with the baseline."""
 
 MODEL_FREE = ("ddpg", "cacla")
 CURVE_POINTS = 200
@@ -109,6 +115,7 @@ def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord |
             # finds, where a sparse reward's Final Perf mixes grasps (+1) with topples (−1).
             "train_success": final_performance(successes),
             "success": math.nan if success is None else float(success),
+            "train_length": final_performance(np.diff(steps, prepend=0.0).tolist()),
         },
     )
 
@@ -188,6 +195,7 @@ def build_report(directory: Path | str, *, reps: int | None = None) -> dict[str,
                         scores(method.label, reward, metric), scores(baseline, reward, metric), reps=reps
                     )
                     for metric in BOOTSTRAPPED
+                    if metric not in DIAGNOSTICS
                 }
                 entry["prob_improvement"]["auc_from_minus1"] = entry["prob_improvement"]["auc"]
             per_reward[reward] = entry
@@ -319,7 +327,7 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "## Summary (Table 1 style)",
         "",
         "IQM over seeds with its 95% stratified-bootstrap CI, and mean ± std (the paper's form). "
-        "Bold: the highest IQM of the row.",
+        "Bold: the highest IQM of the row (none for the episode-length diagnostic).",
         "",
         "| | " + " | ".join(labels) + " |",
         "|---|" + "---|" * len(labels),
@@ -329,7 +337,7 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         for metric, name in METRICS.items():
             cells = [report["methods"][label][reward][metric] for label in labels]
             finite = [c["iqm"] for c in cells if c.get("iqm") is not None]
-            best = max(finite) if len(finite) > 1 else None
+            best = max(finite) if len(finite) > 1 and metric not in DIAGNOSTICS else None
             lines.append(
                 f"| {name} IQM [95% CI] | "
                 + " | ".join(_iqm_cell(c, best is not None and c.get("iqm") == best) for c in cells)
@@ -344,6 +352,7 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         for reward in spec.rewards
         if report["methods"][label][reward].get("baseline") is not None
     ]
+    compared_metrics = [(metric, name) for metric, name in METRICS.items() if metric not in DIAGNOSTICS]
     if compared:
         lines += [
             "",
@@ -352,14 +361,14 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
             "P(X > Y): the chance that a run of the method scores higher than a run of its baseline "
             "(Mann-Whitney U / (n·m)), with its 95% bootstrap CI; 0.5 means no difference.",
             "",
-            "| method | reward | baseline | " + " | ".join(METRICS.values()) + " |",
-            "|---|---|---|" + "---|" * len(METRICS),
+            "| method | reward | baseline | " + " | ".join(name for _, name in compared_metrics) + " |",
+            "|---|---|---|" + "---|" * len(compared_metrics),
         ]
         for label, reward in compared:
             entry = report["methods"][label][reward]
             lines.append(
                 f"| {label} | {reward} | {entry['baseline']} | "
-                + " | ".join(_p_cell(entry["prob_improvement"].get(metric)) for metric in METRICS)
+                + " | ".join(_p_cell(entry["prob_improvement"].get(metric)) for metric, _ in compared_metrics)
                 + " |"
             )
     windows = ", ".join(f"{spec.smoothing.get(r, 250)} episodes ({r})" for r in spec.rewards)

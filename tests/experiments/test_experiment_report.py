@@ -92,6 +92,9 @@ def test_numbers_equal_a_hand_computation(made_up: Path) -> None:
     train = [float(v > 0) for v in FINAL["M"]]
     assert m["train_success"]["mean"] == pytest.approx(np.mean(train))
     assert report["methods"]["B"]["sparse"]["train_success"]["mean"] == 0.0  # every B return is ≤ 0
+    # Episode length: the made-up cells log one episode every 5 env steps; a diagnostic, not compared.
+    assert m["train_length"]["mean"] == pytest.approx(5.0) and m["train_length"]["iqm"] == pytest.approx(5.0)
+    assert "train_length" not in m["prob_improvement"]
     for metric in ("auc", "final_perf", "success", "auc_from_minus1"):
         low, high = m[metric]["ci"]
         assert low <= m[metric]["iqm"] <= high

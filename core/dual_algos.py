@@ -25,10 +25,12 @@ One training step of the ITM methods (Alg. 2 / Alg. 3), split over the trainer's
   (26-28; for I2A and LA-Imagination the pixel + latent update of Alg. 3 lines 34-37).
 
 Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_error`` (mean Eq. 8 error
-of the real transitions), ``mb_decisions`` / ``mf_decisions`` (counts), ``horizon`` (mean H of the
-model-based decisions, NaN when none), ``itm_nodes``, ``imagined`` (latent transitions added),
-``intrinsic_reward`` (mean r_int), ``plan_loss_drop`` (mean L_plan decrease over the K MPC steps),
-``plan_action_shift`` (mean max-abs difference between the executed MPC action and the actor's μ(φ_t)),
+of the real transitions), ``no_change_error`` (the same error of the predictor φ̂′ = φ_t, r̂ = 0: the
+latent scale the model error is read against), ``mb_decisions`` / ``mf_decisions`` (counts),
+``horizon`` (mean H of the model-based decisions, NaN when none), ``itm_nodes``, ``imagined`` (latent
+transitions added), ``intrinsic_reward`` (mean r_int), ``plan_loss_drop`` (mean L_plan decrease over
+the K MPC steps), ``plan_action_shift`` (mean max-abs difference between the executed MPC action and the
+actor's μ(φ_t)),
 and with ``dual.refit_every`` set, ``refit_error`` (mean Eq. 8 error of the refit batches before the step).
 """
 
@@ -58,6 +60,7 @@ class _EpisodeCounters:
 
     def __init__(self) -> None:
         self.errors: list[float] = []
+        self.naive_errors: list[float] = []
         self.intrinsic: list[float] = []
         self.horizons: list[int] = []
         self.plan_drops: list[float] = []
@@ -178,6 +181,7 @@ class DualSystemAgent(ModelFreeAgent):
                                                next_phi[0])  # lines 22 and 25
         self._pending_intrinsic = feedback.intrinsic_reward if self.intrinsic else 0.0
         self.counters.errors.append(feedback.error)
+        self.counters.naive_errors.append(self._no_change_error(next_phi[0], transition.reward))
         self.counters.intrinsic.append(self._pending_intrinsic)
         super().observe(transition)  # line 24, with stored_reward
         self._pending_intrinsic = 0.0
@@ -185,6 +189,13 @@ class DualSystemAgent(ModelFreeAgent):
         refit_every = self.config.dual.refit_every
         if refit_every and self.steps % refit_every == 0:
             self._refit_models()
+
+    def _no_change_error(self, next_phi: torch.Tensor, reward: float) -> float:
+        """Eq. 8 error of predicting "nothing changes" (φ̂′ = φ_t, r̂ = 0): the scale ``dual/model_error`` is
+        read against, since the encoder's latent scale grows by about 100× during training."""
+        bank = self.world.bank
+        error = bank.errors(self._phi, torch.zeros(1), next_phi.reshape(1, -1), torch.tensor([float(reward)]))
+        return float(error[0])
 
     def _refit_models(self) -> None:
         """``dual.refit_every`` (not in the paper): refit the local models to the current encoder's latents.
@@ -220,6 +231,7 @@ class DualSystemAgent(ModelFreeAgent):
         out = super().episode_diagnostics()
         out.update({
             "dual/model_error": _mean(c.errors),
+            "dual/no_change_error": _mean(c.naive_errors),
             "dual/mb_decisions": float(len(c.horizons)),
             "dual/mf_decisions": float(c.mf_decisions),
             "dual/horizon": _mean(c.horizons),

@@ -348,3 +348,15 @@ def test_agent_refits_every_n_real_steps_on_its_replay_and_reports_the_drift() -
     diagnostics = agent.episode_diagnostics()
     assert np.isfinite(diagnostics["dual/refit_error"])
     assert "dual/refit_error" not in _agent("im2c").episode_diagnostics()
+
+
+def test_no_change_error_is_eq8_of_predicting_phi_t_and_zero_reward() -> None:
+    agent = _agent("im2c")  # error_norm l2 (default): ‖φ′ − φ‖ + |r|
+    first, second = _obs(3), _obs(4)
+    agent.begin_episode(first)
+    action, _ = agent.act(first, explore=True)
+    phi, next_phi = agent._encode(first)[0], agent._encode(second)[0]
+    agent.observe(Transition(first, action, 0.5, second, False, False))
+    expected = float((next_phi - phi).norm() + 0.5)
+    assert agent.counters.naive_errors == [pytest.approx(expected, rel=1e-5)]
+    assert agent.episode_diagnostics()["dual/no_change_error"] == pytest.approx(expected, rel=1e-5)

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 from core.config import ConfigError
 
 if TYPE_CHECKING:
+    from core.config import Config
     from core.experiments.spec import ExperimentSpec, MethodSpec
 
 EpisodeCallback = Callable[[dict[str, Any]], None]
@@ -53,53 +54,71 @@ class CellRunner(Protocol):
         ...
 
 
-class TrainerRunner:
-    """Cells of the methods in ``core.algos``: ``core.config`` + ``core.trainer.train``."""
+class ConfigCellRunner:
+    """What the cell runners of ``core.config`` configs share; a subclass gives ``resolve`` (usually through
+    :meth:`_checked_config`) and :meth:`training_function`.
 
-    def resolve(self, spec: ExperimentSpec, method: MethodSpec, reward: str, seed: int) -> dict[str, Any]:
-        from core.algos import resolve_algo
-        from core.config import check_config, load_config
-        from core.experiments.spec import ExperimentError
+    ``normalise`` brings a stored config.yaml to the ``Config`` schema; ``train`` rebuilds the ``Config``
+    and hands it, with the run directory and the keyword arguments of :meth:`CellRunner.train`, to the
+    training function.
+    """
 
-        extra = {"agent.ac": method.ac} if method.ac is not None else {}
-        items = cell_overrides(spec, method, reward, seed, algo=method.algo, extra=extra)
-        try:
-            config = resolve_algo(load_config(spec.profile, items))
-            if method.ac is not None and config.agent.ac != method.ac:
-                raise ConfigError(
-                    f"bad value for ac: {method.algo} always uses the {config.agent.ac} actor update"
-                )
-            check_config(config)
-        except ConfigError as exc:
-            raise ExperimentError(f"method {method.label!r}, {reward} reward: {exc}") from None
-        return config.to_dict()
+    def training_function(self) -> Callable[..., dict[str, Any]]:
+        """``f(config, run_dir, *, resume, on_episode, should_stop, command) -> summary``, the signature of
+        ``core.trainer.train``."""
+        raise NotImplementedError
 
     def normalise(self, stored: Mapping[str, Any]) -> dict[str, Any]:
         from core.config import Config
 
         return Config.from_dict(stored).to_dict()
 
-    def train(
-        self,
-        config: Mapping[str, Any],
-        run_dir: Path,
-        *,
-        resume: bool,
-        should_stop: Callable[[], bool] | None,
-        on_episode: EpisodeCallback | None,
-        command: str,
-    ) -> dict[str, Any]:
+    def train(self, config: Mapping[str, Any], run_dir: Path, **options: Any) -> dict[str, Any]:
+        """:meth:`CellRunner.train`; ``options`` are its ``resume``, ``should_stop``, ``on_episode`` and
+        ``command``, passed on as they come."""
         from core.config import Config
+
+        return self.training_function()(Config.from_dict(config), run_dir, **options)
+
+    @staticmethod
+    def _checked_config(method: MethodSpec, reward: str, build: Callable[[], Config]) -> dict[str, Any]:
+        """``build()``'s config, checked, as the cell's nested dict; a ConfigError (from either) becomes the
+        ExperimentError that names the method and the reward."""
+        from core.config import check_config
+        from core.experiments.spec import ExperimentError
+
+        try:
+            config = build()
+            check_config(config)
+        except ConfigError as exc:
+            raise ExperimentError(f"method {method.label!r}, {reward} reward: {exc}") from None
+        return config.to_dict()
+
+
+class TrainerRunner(ConfigCellRunner):
+    """Cells of the methods in ``core.algos``: ``core.config`` + ``core.trainer.train``."""
+
+    def training_function(self) -> Callable[..., dict[str, Any]]:
         from core.trainer import train
 
-        return train(
-            Config.from_dict(config),
-            run_dir,
-            resume=resume,
-            on_episode=on_episode,
-            should_stop=should_stop,
-            command=command,
-        )
+        return train
+
+    def resolve(self, spec: ExperimentSpec, method: MethodSpec, reward: str, seed: int) -> dict[str, Any]:
+        from core.algos import resolve_algo
+        from core.config import load_config
+
+        extra = {"agent.ac": method.ac} if method.ac is not None else {}
+        items = cell_overrides(spec, method, reward, seed, algo=method.algo, extra=extra)
+
+        def build() -> Config:
+            config = resolve_algo(load_config(spec.profile, items))
+            if method.ac is not None and config.agent.ac != method.ac:
+                raise ConfigError(
+                    f"bad value for ac: {method.algo} always uses the {config.agent.ac} actor update"
+                )
+            return config
+
+        return self._checked_config(method, reward, build)
 
 
 def _raw(value: Any) -> str:

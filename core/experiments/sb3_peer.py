@@ -51,12 +51,10 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import io
 import json
-import math
 import random
-import shlex
-import sys
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -67,19 +65,16 @@ import torch
 from torch import nn
 
 from core.agent import generator_state, restore_generator
-from core.config import Config, ConfigError, NetConfig, check_config, resolve_level_defaults
-from core.experiments.runners import EpisodeCallback, cell_overrides, register_cell_runner
-from core.metrics import area_under_curve, final_performance
-from core.nets import Encoder
-from core.run_dir import (
-    CHECKPOINT_FORMAT,
-    MetricsCSV,
-    RunDirectory,
-    RunDirectoryError,
-    atomic_torch_save,
-    atomic_write_bytes,
-    load_checkpoint,
+from core.config import Config, ConfigError, NetConfig
+from core.experiments.runners import (
+    ConfigCellRunner,
+    EpisodeCallback,
+    cell_overrides,
+    register_cell_runner,
 )
+from core.nets import Encoder
+from core.run_bookkeeping import RunBookkeeping, mean_dicts
+from core.run_dir import RunDirectoryError, atomic_torch_save, atomic_write_bytes
 
 if TYPE_CHECKING:
     from core.experiments.spec import ExperimentSpec, MethodSpec
@@ -245,8 +240,8 @@ def _load_replay_state(buffer: Any, state: Mapping[str, Any]) -> None:
     buffer.full = bool(state["full"])
 
 
-class _SB3Run:
-    """State of one ``train_sb3`` call (mirrors ``core.trainer._Trainer``)."""
+class _SB3Run(RunBookkeeping):
+    """State of one ``train_sb3`` call (the bookkeeping of ``core.trainer._Trainer``, SB3's training)."""
 
     def __init__(
         self,
@@ -258,8 +253,6 @@ class _SB3Run:
         should_stop: Callable[[], bool] | None,
         command: str | None,
     ) -> None:
-        from core.trainer import _StopFlag
-
         if algo not in SB3_ALGOS.values():
             raise ConfigError(f"unknown SB3 algorithm {algo!r} (choose from sac, td3)")
         self.algo = algo
@@ -267,45 +260,12 @@ class _SB3Run:
         require_sb3(self.name)
         if config.run.algo != self.name:
             config = dataclasses.replace(config, run=dataclasses.replace(config.run, algo=self.name))
-        self.config = resolve_level_defaults(config)
-        check_config(self.config)
-        self.dir = RunDirectory(run_dir)
-        self.on_episode = on_episode
-        self.stop_flag = _StopFlag(should_stop)
-        self.command = command if command is not None else shlex.join(sys.argv)
-        self.resume = resume
-        self.episode = 0
-        self.global_step = 0
-        self.wall_offset = 0.0
-        self.returns: list[float] = []
-        self.successes: list[float] = []
-        self.evals: list[tuple[int, float]] = []
-        self.best: tuple[float, float] | None = None
-        self.last_eval: dict[str, float] = {}
-        self.stopped = False
+        super().__init__(config, run_dir, resume, on_episode, should_stop, command)
 
     # -- setup ----------------------------------------------------------------------------------
-    def _prepare(self) -> dict[str, Any] | None:
-        checkpoint = None
-        if self.resume:
-            checkpoint = load_checkpoint(self.dir.latest_path)
-            if checkpoint.get("sb3", {}).get("format") != _SB3_FORMAT:
-                raise RunDirectoryError(f"{self.dir.latest_path} is not a Stable-Baselines3 run's checkpoint")
-            saved = Config.from_dict(checkpoint["config"])
-            for section in ("net", "env", "agent", "dual"):
-                if getattr(saved, section) != getattr(self.config, section):
-                    raise ConfigError(
-                        f"cannot resume {self.dir.root}: config section {section!r} "
-                        "differs from the saved run"
-                    )
-            if saved.run.algo != self.config.run.algo:
-                raise ConfigError(f"cannot resume {self.dir.root}: it was trained with {saved.run.algo!r}")
-        elif self.dir.holds_run():
-            raise RunDirectoryError(f"run directory {self.dir.root} already holds a run (resume it instead)")
-        self.dir.create()
-        self.dir.write_config(self.config)
-        self.dir.append_command(self.command)
-        return checkpoint
+    def _check_checkpoint(self, checkpoint: Mapping[str, Any]) -> None:
+        if checkpoint.get("sb3", {}).get("format") != _SB3_FORMAT:
+            raise RunDirectoryError(f"{self.dir.latest_path} is not a Stable-Baselines3 run's checkpoint")
 
     def _algorithm_class(self) -> Any:
         from stable_baselines3 import SAC, TD3
@@ -361,14 +321,7 @@ class _SB3Run:
     def _restore(self, checkpoint: dict[str, Any], model: Any, env: Any) -> None:
         from core.trainer import _restore_env_rng
 
-        counters = checkpoint["counters"]
-        self.episode = int(counters["episode"])
-        self.global_step = int(counters["global_step"])
-        self.wall_offset = float(counters["wall_s"])
-        best = counters.get("best")
-        self.best = (float(best[0]), float(best[1])) if best else None
-        self.evals = [(int(e), float(s)) for e, s in checkpoint["evals"]]
-        if int(model.num_timesteps) != self.global_step:
+        if int(model.num_timesteps) != int(checkpoint["counters"]["global_step"]):
             raise RunDirectoryError(f"{self.dir.latest_path}: the SB3 model and the counters disagree")
         rngs = checkpoint["rng"]
         torch.set_rng_state(rngs["torch"])
@@ -380,19 +333,9 @@ class _SB3Run:
         random.setstate((python_state[0], tuple(python_state[1]), python_state[2]))
         restore_generator(model.action_space.np_random, rngs["action_space"])
         _restore_env_rng(env, checkpoint["env_rng"])
-        self.csv.truncate_after(self.episode)
-        self.returns = self.csv.column("charts/episodic_return")
-        self.successes = self.csv.column("charts/success")
+        self._restore_progress(checkpoint)
 
     # -- checkpoints ----------------------------------------------------------------------------
-    def _counters(self, wall_s: float) -> dict[str, Any]:
-        return {
-            "episode": self.episode,
-            "global_step": self.global_step,
-            "wall_s": wall_s,
-            "best": list(self.best) if self.best else None,
-        }
-
     def _save_latest(self, model: Any, env_rng: dict[str, Any], wall_s: float) -> None:
         checkpoints = self.dir.checkpoints
         model_name = f"sb3-model-{self.global_step}.zip"
@@ -403,10 +346,8 @@ class _SB3Run:
         python_state = random.getstate()
         atomic_torch_save(
             {
-                "format": CHECKPOINT_FORMAT,
-                "config": self.config.to_dict(),
-                "counters": self._counters(wall_s),
-                "evals": [list(item) for item in self.evals],
+                **self._checkpoint_head(wall_s),
+                "evals": self._eval_history(),
                 "sb3": {
                     "format": _SB3_FORMAT,
                     "algo": self.algo,
@@ -434,27 +375,9 @@ class _SB3Run:
         from core.trainer import evaluate
 
         result = evaluate(GreedyPolicy(model), eval_env, self.config.run.eval_episodes)  # type: ignore[arg-type]
-        self.last_eval = result
-        self.evals.append((self.episode, result["eval/success_rate"]))
-        score = (result["eval/success_rate"], result["eval/return"])
-        if self.best is None or score > self.best:
-            self.best = score
+        if self._record_evaluation(result):
             atomic_write_bytes(self.dir.checkpoints / "best.zip", _model_bytes(model))
         return result
-
-    def _budget_spent(self, wall_s: float) -> bool:
-        run = self.config.run
-        return (
-            (run.episodes is not None and self.episode >= run.episodes)
-            or (run.steps is not None and self.global_step >= run.steps)
-            or (run.max_wall_s is not None and wall_s >= run.max_wall_s)
-        )
-
-    def _checkpoint_due(self, since_last_s: float) -> bool:
-        run = self.config.run
-        by_episode = run.checkpoint_every > 0 and self.episode % run.checkpoint_every == 0
-        by_time = run.checkpoint_every_s is not None and since_last_s >= run.checkpoint_every_s
-        return by_episode or by_time
 
     # -- the loop -------------------------------------------------------------------------------
     def run(self) -> dict[str, Any]:
@@ -462,22 +385,17 @@ class _SB3Run:
 
         from core.trainer import make_env
 
-        checkpoint = self._prepare()
+        checkpoint = self._begin()
         cfg = self.config
-        torch.set_num_threads(max(1, cfg.run.num_threads))
-        torch.manual_seed(cfg.run.seed)
         env = make_env(cfg)
         recorder = _make_reset_recorder(env)
         venv = DummyVecEnv([lambda: recorder])
         self.eval_env: Any = None
-        self.csv = MetricsCSV(self.dir.metrics_path)
         try:
             model = self._build(venv, checkpoint)
             if checkpoint is not None:
                 self._restore(checkpoint, model, env)
-            self.start_time = time.perf_counter()
-            self.start_step = self.global_step
-            self.last_checkpoint = self.start_time
+            self._start_clock()
             callback = self._callback(model, recorder, env)
             with self.stop_flag:
                 with contextlib.suppress(_EndOfRun):  # the callback ends the run at an episode boundary
@@ -488,37 +406,22 @@ class _SB3Run:
                         log_interval=None,  # type: ignore[arg-type]
                     )
                 final_eval: dict[str, float] = {}
-                if (
-                    not self.stopped
-                    and cfg.run.final_eval
-                    and (not self.evals or self.evals[-1][0] != self.episode)
-                ):
+                if self._final_evaluation_due():
                     self.eval_env = self.eval_env or make_env(cfg, evaluation=True)
                     final_eval = self._evaluate(model, self.eval_env)
             # at an episode boundary the env was already reset for the next episode: resume replays it
             env_rng = recorder.before_reset if callback.at_boundary else _env_rng_state(env)
             self._save_latest(model, env_rng, self.wall())
-            summary = self._summary(final_eval)
-            self.dir.write_summary(summary)
-            self.dir.write_learning_curve(
-                self.returns,
-                self.evals,
-                cfg.run.smoothing_window,
-                f"{self.name} · {cfg.env.reward_mode} reward · seed {cfg.run.seed}",
-            )
-            return summary
+            return self._finish(final_eval, ac=None)
         finally:
             venv.close()
             if self.eval_env is not None:
                 self.eval_env.close()
 
-    def wall(self) -> float:
-        return self.wall_offset + time.perf_counter() - self.start_time
-
     def _callback(self, model: Any, recorder: Any, env: Any) -> Any:
         from stable_baselines3.common.callbacks import BaseCallback
 
-        from core.trainer import RECORD_KEYS, make_env
+        from core.trainer import make_env
 
         run = self
 
@@ -575,67 +478,24 @@ class _SB3Run:
                 if run.stopped or run.stop_flag():
                     run.stopped = True
                     raise _EndOfRun
-                if self.at_boundary and run._budget_spent(run.wall()):
+                if self.at_boundary and run._budget_spent():
                     raise _EndOfRun
 
             def _end_episode(self, finished: dict[str, Any]) -> None:
-                from core.trainer import _mean_dicts
-
-                run.episode += 1
-                run.returns.append(finished["return"])
-                run.successes.append(float(finished["success"]))
-                record: dict[str, Any] = dict.fromkeys(RECORD_KEYS, math.nan)
-                record.update(
-                    {
-                        "episode": run.episode,
-                        "global_step": run.global_step,
-                        "charts/episodic_return": finished["return"],
-                        "charts/success": int(finished["success"]),
-                        "charts/toppled": int(finished["toppled"]),
-                        "charts/length": finished["length"],
-                    }
+                record = run._new_record(
+                    finished["return"], finished["length"], finished["success"], finished["toppled"]
                 )
-                record.update(_mean_dicts(self.losses))
+                record.update(mean_dicts(self.losses))
                 self.losses = []
-                cfg = run.config
-                if cfg.run.eval_every > 0 and run.episode % cfg.run.eval_every == 0:
-                    run.eval_env = run.eval_env or make_env(cfg, evaluation=True)
+                if run._evaluation_due():
+                    run.eval_env = run.eval_env or make_env(run.config, evaluation=True)
                     record.update(run._evaluate(model, run.eval_env))
-                elapsed = time.perf_counter() - run.start_time
-                record["time/wall_s"] = run.wall()
-                record["charts/sps"] = (run.global_step - run.start_step) / max(elapsed, 1e-9)
-                run.csv.append(record)
-                if run.on_episode is not None:
-                    run.on_episode(dict(record))
-                if run._checkpoint_due(time.perf_counter() - run.last_checkpoint):
+                run._log_episode(record)
+                if run._checkpoint_due():
                     run._save_latest(model, recorder.before_reset, run.wall())
                     run.last_checkpoint = time.perf_counter()
 
         return EpisodeRecords()
-
-    def _summary(self, final_eval: dict[str, float]) -> dict[str, Any]:
-        last_eval = final_eval or self.last_eval
-        recent = self.successes[-100:]
-        return {
-            "run_dir": str(self.dir.root),
-            "algo": self.name,
-            "ac": None,
-            "reward": self.config.env.reward_mode,
-            "seed": self.config.run.seed,
-            "episodes": self.episode,
-            "steps": self.global_step,
-            "final_perf": final_performance(self.returns),
-            "auc": area_under_curve(self.returns),
-            "auc_from_minus1": area_under_curve(self.returns, baseline=-1.0),
-            "success_rate": last_eval.get("eval/success_rate", math.nan),
-            "eval_return": last_eval.get("eval/return", math.nan),
-            "eval_episodes": self.config.run.eval_episodes if last_eval else 0,
-            "best_success_rate": self.best[0] if self.best else math.nan,
-            "train_success_rate_last100": float(np.mean(recent)) if recent else math.nan,
-            "wall_s": self.wall(),
-            "sps": (self.global_step - self.start_step) / max(time.perf_counter() - self.start_time, 1e-9),
-            "stopped": self.stopped,
-        }
 
 
 def _sb3_version() -> str:
@@ -665,7 +525,7 @@ def train_sb3(
 # -- the experiment runner's cell runner ------------------------------------------------------
 
 
-class SB3Runner:
+class SB3Runner(ConfigCellRunner):
     """Cells of ``sb3-sac`` / ``sb3-td3``: ``core.config`` (profile → overrides → the cell's keys, as for
     every method) + :func:`train_sb3`. ``run.algo`` is the SB3 name (not in ``core.algos``)."""
 
@@ -683,35 +543,10 @@ class SB3Runner:
                 f"bad value for ac: method {method.label!r} ({self.name}) has no actor-update rule of ours"
             )
         items = cell_overrides(spec, method, reward, seed, algo=self.name)
-        try:
-            config = load_config(spec.profile, items)
-            check_config(config)
-        except ConfigError as exc:
-            raise ExperimentError(f"method {method.label!r}, {reward} reward: {exc}") from None
-        return config.to_dict()
+        return self._checked_config(method, reward, lambda: load_config(spec.profile, items))
 
-    def normalise(self, stored: Mapping[str, Any]) -> dict[str, Any]:
-        return Config.from_dict(stored).to_dict()
-
-    def train(
-        self,
-        config: Mapping[str, Any],
-        run_dir: Path,
-        *,
-        resume: bool,
-        should_stop: Callable[[], bool] | None,
-        on_episode: EpisodeCallback | None,
-        command: str,
-    ) -> dict[str, Any]:
-        return train_sb3(
-            Config.from_dict(config),
-            run_dir,
-            algo=self.algo,
-            resume=resume,
-            on_episode=on_episode,
-            should_stop=should_stop,
-            command=command,
-        )
+    def training_function(self) -> Callable[..., dict[str, Any]]:
+        return functools.partial(train_sb3, algo=self.algo)
 
 
 for _name in SB3_ALGOS:

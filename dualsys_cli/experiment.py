@@ -156,8 +156,8 @@ def report_command(
     as_json: bool = typer.Option(False, "--json", help="Print the numbers as one JSON object."),
     reps: int = typer.Option(None, "--reps", min=100, help="Bootstrap replications (default 2000)."),
 ) -> None:
-    """Write report.md, learning_curves.png and scores.png: IQM with 95% bootstrap CIs, mean ± std,
-    probability of improvement over the model-free baseline, Fig. 8-style learning curves."""
+    """Write report.md, learning_curves.png, success_curves.png and scores.png: IQM with 95% bootstrap CIs,
+    mean ± std, probability of improvement over the model-free baseline, Fig. 8-style learning curves."""
     from core.experiments import write_report
 
     with user_errors():

@@ -151,5 +151,5 @@ def report(
                 (cell_dir / name).write_bytes(client.artifact(job["job_id"], name))
         result = write_report(root)
     typer.echo(f"{len(done)}/{experiment['cells']['total']} cells; report: {result['files']['report']}")
-    for name in ("learning_curves", "scores"):
+    for name in ("learning_curves", "success_curves", "scores"):
         typer.echo(f"  {name}: {result['files'][name]}")

@@ -1,7 +1,8 @@
 """Figures of an experiment report (matplotlib, Agg backend, written atomically).
 
 * ``learning_curves.png`` — one panel per reward mode, each method's mean smoothed episodic reward over
-  env steps with a ± one-standard-deviation band (the style of the paper's Fig. 8, 10 and 11).
+  env steps with a ± one-standard-deviation band (the style of the paper's Fig. 8, 10 and 11);
+  ``success_curves.png`` the same for the share of training episodes that end in a grasp.
 * ``scores.png`` — per reward mode (rows) and score (columns), each method's IQM with its 95% CI
   (the interval plot rliable recommends).
 """
@@ -45,7 +46,10 @@ def _colours(labels: list[str]) -> dict[str, Any]:
 
 
 def plot_learning_curves(
-    spec: ExperimentSpec, curves: dict[str, dict[str, dict[str, np.ndarray]]], path: Path
+    spec: ExperimentSpec,
+    curves: dict[str, dict[str, dict[str, np.ndarray]]],
+    path: Path,
+    ylabel: str = "episodic reward (smoothed)",
 ) -> None:
     """Mean ± std learning curves, one panel per reward mode (``report.learning_curves`` output)."""
     plt = _pyplot()
@@ -76,7 +80,7 @@ def plot_learning_curves(
             )
         axis.set_title(f"({chr(ord('a') + index)}) {reward} reward")
         axis.set_xlabel("environment steps")
-        axis.set_ylabel("episodic reward (smoothed)")
+        axis.set_ylabel(ylabel)
         axis.set_xlim(0, spec.steps)
         axis.grid(alpha=0.3)
         if axis.get_legend_handles_labels()[0]:

@@ -17,7 +17,8 @@ baseline (the file's ``baseline``, else the ddpg/cacla method with the same acto
 ddpg/cacla method). Only finished cells count; the others are listed as missing.
 
 ``build_report(dir)`` returns the numbers as one JSON-ready dict; ``write_report(dir)`` also writes
-``report.md``, ``learning_curves.png`` (Fig. 8/10/11 style) and ``scores.png`` into the experiment folder.
+``report.md``, ``learning_curves.png`` (Fig. 8/10/11 style), ``success_curves.png`` and ``scores.png``
+into the experiment folder.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -67,6 +68,8 @@ class CellRecord:
     """Env step at the end of each training episode."""
     returns: np.ndarray
     """Episodic reward of each training episode."""
+    successes: np.ndarray
+    """1 where the training episode ended in a grasp, else 0 (NaN where metrics.csv has no column)."""
     scores: dict[str, float]
 
 
@@ -107,6 +110,7 @@ def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord |
         ac=str(summary.get("ac") or "ddpg"),
         steps=np.asarray(steps),
         returns=np.asarray(returns),
+        successes=np.asarray(successes),
         scores={
             "auc": area_under_curve(returns),
             "auc_from_minus1": area_under_curve(returns, baseline=-1.0),
@@ -217,13 +221,17 @@ def build_report(directory: Path | str, *, reps: int | None = None) -> dict[str,
 
 
 def learning_curves(
-    spec: ExperimentSpec, records: list[CellRecord], points: int = CURVE_POINTS
+    spec: ExperimentSpec,
+    records: list[CellRecord],
+    points: int = CURVE_POINTS,
+    series: Literal["returns", "successes"] = "returns",
 ) -> dict[str, dict[str, dict[str, np.ndarray]]]:
     """Per reward mode and method: ``{"steps", "mean", "std", "n"}`` on a common env-step grid.
 
-    Each cell's episodic rewards are smoothed with the reward mode's sliding window (Fig. 8: 250 episodes
-    dense, 375 sparse; ``smoothing`` in the file), placed at the env step where each episode ended and
-    linearly interpolated to the grid; a seed contributes only between its first and last episode.
+    Each cell's episodic rewards (``series="successes"``: its 0/1 grasp outcomes, so the curve is the share
+    of training episodes that end in a grasp) are smoothed with the reward mode's sliding window (Fig. 8:
+    250 episodes dense, 375 sparse; ``smoothing`` in the file), placed at the env step where each episode
+    ended and linearly interpolated to the grid; a seed contributes only between its first and last episode.
     """
     grid = np.linspace(0.0, float(spec.steps), points + 1)[1:]
     curves: dict[str, dict[str, dict[str, np.ndarray]]] = {}
@@ -235,7 +243,7 @@ def learning_curves(
             for record in records:
                 if record.label != method.label or record.reward != reward or record.steps.size == 0:
                     continue
-                smoothed = smooth(record.returns, window)
+                smoothed = smooth(getattr(record, series), window)
                 values = np.interp(grid, record.steps, smoothed)
                 values[(grid < record.steps[0]) | (grid > record.steps[-1])] = np.nan
                 rows.append(values)
@@ -257,19 +265,21 @@ def learning_curves(
 
 
 def write_report(directory: Path | str, *, reps: int | None = None) -> dict[str, Any]:
-    """Write report.md, learning_curves.png and scores.png into the experiment folder; returns the numbers
-    (:func:`build_report`) with ``"files"`` added."""
+    """Write report.md, learning_curves.png, success_curves.png and scores.png into the experiment folder;
+    returns the numbers (:func:`build_report`) with ``"files"`` added."""
     from core.experiments.figures import plot_learning_curves, plot_scores
 
     report = build_report(directory, reps=reps)
     spec, root, records, _ = collect(directory)
-    curves = learning_curves(spec, records)
     files = {
         "report": root / "report.md",
         "learning_curves": root / "learning_curves.png",
+        "success_curves": root / "success_curves.png",
         "scores": root / "scores.png",
     }
-    plot_learning_curves(spec, curves, files["learning_curves"])
+    plot_learning_curves(spec, learning_curves(spec, records), files["learning_curves"])
+    plot_learning_curves(spec, learning_curves(spec, records, series="successes"), files["success_curves"],
+                         ylabel="share of training episodes that grasp (smoothed)")
     plot_scores(report, [m.label for m in spec.methods], files["scores"])
     atomic_write_text(files["report"], render_markdown(spec, report))
     atomic_write_text(root / "report.json", json.dumps(report, indent=2) + "\n")
@@ -380,6 +390,10 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "",
         f"Episodic reward smoothed with a sliding window of {windows}, interpolated to a common grid of "
         "env steps; line: mean over seeds, band: ± one standard deviation (as Fig. 8/10/11).",
+        "",
+        "![success curves](success_curves.png)",
+        "",
+        "The same for the share of training episodes that end in a grasp (training success over time).",
         "",
         "![scores](scores.png)",
         "",

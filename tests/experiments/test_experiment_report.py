@@ -145,7 +145,7 @@ def test_report_files_and_json_cli(made_up: Path) -> None:
     entry = data["methods"]["M"]["sparse"]
     assert set(entry) >= {"auc", "final_perf", "success", "seeds"}
     assert set(entry["auc"]) >= {"iqm", "ci", "mean", "std"}
-    for name in ("report.md", "learning_curves.png", "scores.png"):
+    for name in ("report.md", "learning_curves.png", "success_curves.png", "scores.png"):
         assert (made_up / name).stat().st_size > 0
     markdown = (made_up / "report.md").read_text()
     assert "| **Sparse reward** |" in markdown and "Probability of improvement" in markdown
@@ -168,3 +168,7 @@ def test_learning_curves_share_an_env_step_grid(made_up: Path) -> None:
     assert curves["mean"][-1] == pytest.approx(np.mean(FINAL["M"]))
     assert curves["std"][-1] == pytest.approx(np.std(FINAL["M"]))
     assert np.all(curves["n"] == 4)
+    # The success curve: each made-up episode grasps where its return is > 0, so at the end a seed's smoothed
+    # share is 1 where v > 0, else 0.
+    shares = learning_curves(spec, records, points=30, series="successes")["sparse"]["M"]
+    assert shares["mean"][-1] == pytest.approx(np.mean([float(v > 0) for v in FINAL["M"]]))

@@ -51,11 +51,19 @@ def _improvement(scores_x: np.ndarray, scores_y: np.ndarray) -> float:
 
 
 @contextlib.contextmanager
-def _quiet() -> Iterator[None]:
-    """arch (under rliable) warns that its ``random_state`` argument will change; rliable passes it."""
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", category=FutureWarning, message=".*random_state.*")
-        yield
+def _quiet_and_seeded() -> Iterator[None]:
+    """Silence arch's warning that ``random_state`` (which rliable passes) will change, and seed NumPy's
+    global generator for the duration: rliable's stratified bootstraps draw their resampling indices with
+    ``np.random.choice`` and ignore ``random_state``, so without this the CIs changed from one process to
+    the next. The caller's global NumPy state is restored afterwards."""
+    state = np.random.get_state()
+    np.random.seed(BOOTSTRAP_SEED)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", category=FutureWarning, message=".*random_state.*")
+            yield
+    finally:
+        np.random.set_state(state)
 
 
 def _generator() -> np.random.RandomState:
@@ -79,7 +87,7 @@ def score_summary(scores: Sequence[float] | np.ndarray, reps: int = BOOTSTRAP_RE
     values = _finite(scores)
     if values.size == 0:
         return {"iqm": None, "ci": [None, None], "mean": None, "std": None, "n": 0}
-    with _quiet():
+    with _quiet_and_seeded():
         _, interval = library.get_interval_estimates(
             {"scores": values.reshape(-1, 1)},
             lambda x: np.array([_trimmed_mean(x)]),
@@ -108,7 +116,7 @@ def probability_of_improvement(
     x, y = _finite(scores_x), _finite(scores_y)
     if x.size == 0 or y.size == 0:
         return {"p": None, "ci": [None, None]}
-    with _quiet():
+    with _quiet_and_seeded():
         _, interval = library.get_interval_estimates(
             {"pair": (x.reshape(-1, 1), y.reshape(-1, 1))},
             lambda a, b: np.array([_improvement(a, b)]),

@@ -13,7 +13,7 @@ import yaml
 from typer.testing import CliRunner
 
 from core.experiments import build_report
-from core.experiments.statistics import _improvement, _trimmed_mean, score_summary
+from core.experiments.statistics import _improvement, _trimmed_mean, probability_of_improvement, score_summary
 from dualsys_cli.main import app
 
 SEEDS = (0, 1, 2, 3)
@@ -119,6 +119,19 @@ def test_fast_statistics_equal_rliables() -> None:
         assert _improvement(y, y) == pytest.approx(metrics.probability_of_improvement(y, y))
     same = score_summary([0.5, 0.5, 0.5])
     assert same["iqm"] == 0.5 and same["ci"] == [0.5, 0.5] and same["std"] == 0.0
+
+
+def test_bootstrap_cis_do_not_depend_on_numpy_global_state_and_leave_it_alone() -> None:
+    # rliable resamples with np.random.choice: a report must not change with whatever seeded NumPy before it
+    # (in another process the global state is fresh entropy), nor disturb the caller's global stream.
+    x, y = [0.0, 0.014, 0.06, 0.022, 0.076], [0.004, 0.0, 0.002, 0.026, 0.002]
+    results = []
+    for seed in (1, 2):
+        np.random.seed(seed)
+        before = np.random.get_state()[1].copy()
+        results.append((score_summary(x, reps=500)["ci"], probability_of_improvement(x, y, reps=500)["ci"]))
+        assert np.array_equal(np.random.get_state()[1], before)
+    assert results[0] == results[1]
 
 
 def test_partial_experiment_reports_what_exists_and_lists_the_missing(made_up: Path) -> None:

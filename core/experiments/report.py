@@ -166,6 +166,13 @@ def build_report(directory: Path | str, *, reps: int | None = None) -> dict[str,
                                   "final_perf", "success", "seeds", "baseline",
                                   "prob_improvement": {metric: {"p", "ci"}}}}}}
     """
+    return _report_numbers(*collect(directory), reps=reps)
+
+
+def _report_numbers(
+    spec: ExperimentSpec, root: Path, records: list[CellRecord], missing: list[str], *, reps: int | None
+) -> dict[str, Any]:
+    """:func:`build_report` on already collected cells."""
     from core.experiments.statistics import (
         BOOTSTRAP_REPS,
         affine_summary,
@@ -174,7 +181,6 @@ def build_report(directory: Path | str, *, reps: int | None = None) -> dict[str,
     )
 
     reps = reps or BOOTSTRAP_REPS
-    spec, root, records, missing = collect(directory)
     baseline_of = baselines(spec, records)
 
     def scores(label: str, reward: str, metric: str) -> list[float]:
@@ -269,8 +275,8 @@ def write_report(directory: Path | str, *, reps: int | None = None) -> dict[str,
     returns the numbers (:func:`build_report`) with ``"files"`` added."""
     from core.experiments.figures import plot_learning_curves, plot_scores
 
-    report = build_report(directory, reps=reps)
-    spec, root, records, _ = collect(directory)
+    spec, root, records, missing = collect(directory)  # every metrics.csv read once, for numbers and curves
+    report = _report_numbers(spec, root, records, missing, reps=reps)
     files = {
         "report": root / "report.md",
         "learning_curves": root / "learning_curves.png",

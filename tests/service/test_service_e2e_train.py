@@ -15,13 +15,10 @@ import time
 from collections.abc import Callable
 from datetime import datetime
 
-import pytest
 import torch
 
 from tests.utils.jobs import FINISHED, job, metrics, submit, wait_status
 from tests.utils.live_service import LiveService, wait_for
-
-pytest.importorskip("core.trainer", reason="the trainer (core.trainer) is not installed")
 
 TINY = {
     "net.conv_channels": "4,4",

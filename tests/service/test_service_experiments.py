@@ -14,23 +14,10 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
+from core.experiments import build_report
+from tests.utils.experiment_files import TINY_CELL_OVERRIDES
 from tests.utils.jobs import FINISHED, job, metrics
 from tests.utils.live_service import LiveService, wait_for
-
-pytest.importorskip("core.experiments", reason="the experiments library (core.experiments) is missing")
-
-from core.experiments import build_report
-
-TINY = {
-    "net.conv_channels": [4, 4],
-    "net.latent_dim": 8,
-    "net.critic_hidden": 8,
-    "net.actor_hidden": 8,
-    "agent.batch_size": 8,
-    "agent.buffer_size": 500,
-    "agent.learning_starts": 10,
-    "env.max_steps": 20,
-}
 
 
 def _experiment(name: str, *, methods: list[dict], seeds: int, steps: int, **extra) -> str:  # type: ignore[no-untyped-def]
@@ -41,7 +28,7 @@ def _experiment(name: str, *, methods: list[dict], seeds: int, steps: int, **ext
         "steps": steps,
         "eval_every": 0,
         "eval_episodes": 1,
-        "overrides": TINY,
+        "overrides": TINY_CELL_OVERRIDES,
         "methods": methods,
         **extra,
     }
@@ -143,7 +130,7 @@ def test_crash_mid_experiment_completes_every_cell_exactly_once(
         methods=[{"label": "DDPG", "algo": "ddpg"}],
         seeds=2,
         steps=100,
-        overrides={**TINY, "run.checkpoint_every": 1},
+        overrides={**TINY_CELL_OVERRIDES, "run.checkpoint_every": 1},
     )
     with service.client(timeout=180) as client:
         created = client.post("/experiments", json={"content": content, "workers": 1}).json()

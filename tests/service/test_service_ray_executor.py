@@ -94,7 +94,6 @@ def test_ray_job_failure_and_cancel(supervisor: Supervisor) -> None:
 
 
 def test_ray_runs_a_tiny_training_job(supervisor: Supervisor) -> None:
-    pytest.importorskip("core.trainer")
     overrides = {
         "net.conv_channels": "4,4",
         "net.latent_dim": 8,

@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from tests.utils.browser import browser_or_skip, console_errors
+from tests.utils.browser import console_errors
 from tests.utils.jobs import job, metrics, submit, wait_progress, wait_status
 from tests.utils.live_service import LiveService, wait_for
 from tests.utils.registered import register_version
@@ -21,18 +21,6 @@ from tests.utils.registered import register_version
 pytestmark = pytest.mark.timeout(420)
 # a refused REST call is logged by Chromium as a failed resource load; that is the test's point
 REFUSED = ("status of 401",)
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    driver, profile = browser_or_skip()
-    try:
-        yield driver
-    finally:
-        driver.quit()
-        import shutil
-
-        shutil.rmtree(profile, ignore_errors=True)
 
 
 @pytest.fixture()
@@ -233,7 +221,6 @@ def test_train_job_page_draws_greedy_success_and_dual_system_diagnostics(
     browser: Any, page: Callable[[str], None], start_service: Callable[..., LiveService]
 ) -> None:
     """A real (tiny) I2A training job: the trainer's own metric keys reach the browser's panels."""
-    pytest.importorskip("core.trainer", reason="the trainer (core.trainer) is not installed")
     service = start_service()
     # the first train submission imports the trainer in the service: slow on a busy machine
     with service.client(timeout=180) as client:

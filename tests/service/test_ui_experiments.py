@@ -12,22 +12,12 @@ from typing import Any
 import pytest
 import yaml
 
-from tests.utils.browser import browser_or_skip, console_errors
+from tests.utils.browser import console_errors
+from tests.utils.experiment_files import TINY_CELL_OVERRIDES
 from tests.utils.live_service import LiveService, wait_for
 
-pytest.importorskip("core.experiments", reason="the experiments library (core.experiments) is missing")
-
 REFUSED = ("status of 401",)
-TINY = {
-    "net.conv_channels": [4, 4],
-    "net.latent_dim": 8,
-    "net.critic_hidden": 8,
-    "net.actor_hidden": 8,
-    "agent.batch_size": 8,
-    "agent.buffer_size": 500,
-    "agent.learning_starts": 10,
-    "env.max_steps": 10,
-}
+TINY = {**TINY_CELL_OVERRIDES, "env.max_steps": 10}
 
 
 def _experiment(name: str, *, rewards: list[str], seeds: int, steps: int, description: str = "") -> str:
@@ -46,18 +36,6 @@ def _experiment(name: str, *, rewards: list[str], seeds: int, steps: int, descri
         },
         sort_keys=False,
     )
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    driver, profile = browser_or_skip()
-    try:
-        yield driver
-    finally:
-        driver.quit()
-        import shutil
-
-        shutil.rmtree(profile, ignore_errors=True)
 
 
 @pytest.fixture()

@@ -16,7 +16,7 @@ import time
 
 import torch
 
-from core.model_bank import ModelBank
+from core.dual.model_bank import ModelBank
 
 NODE_COUNTS = (2, 50, 500)
 

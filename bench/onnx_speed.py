@@ -40,8 +40,8 @@ def measure(policy: Path | str | None = None, repeats: int = 2000, threads: int 
     from core.config import Config
     from core.deploy.onnx_export import onnx_bytes
     from core.deploy.onnx_policy import OnnxPolicy
-    from core.nets import OBS_SHAPE, Actor, Encoder, PolicyNetwork
-    from core.policy import load_policy
+    from core.modelfree.networks import OBS_SHAPE, Actor, Encoder, PolicyNetwork
+    from core.runs.policy import load_policy
 
     if repeats < 1 or threads < 1:
         raise ValueError("repeats and threads must be >= 1")

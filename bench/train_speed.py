@@ -26,20 +26,20 @@ from typing import Any
 import numpy as np
 import torch
 
-from core.agent import Transition
-from core.algos import make_agent
 from core.config import Config, load_config
-from core.trainer import env_spec, make_env
+from core.modelfree.agent import Transition
+from core.runs.methods import make_agent
+from core.runs.trainer import env_spec, make_env
 
 METHODS = ("ddpg", "cacla", "sb3-ddpg")
-"""The model-free methods and the SB3 reference; every method in ``core.algos`` is accepted too."""
+"""The model-free methods and the SB3 reference; every method in ``core.runs.methods`` is accepted too."""
 
 
 def known_methods() -> tuple[str, ...]:
-    """``METHODS`` plus every registered algo (the dual-system methods register on import)."""
-    from core.algos import load_algos
+    """``METHODS`` plus every method in ``core.runs.methods.ALGOS``."""
+    from core.runs.methods import ALGOS
 
-    return tuple(dict.fromkeys((*METHODS, *sorted(load_algos()))))
+    return tuple(dict.fromkeys((*METHODS, *sorted(ALGOS))))
 
 
 def _config(algo: str, batch: int | None, buffer: int) -> Config:
@@ -88,7 +88,7 @@ def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> 
     except ImportError as exc:  # the bench extra is not installed
         raise ValueError("sb3-ddpg needs stable-baselines3: pip install -e '.[bench]'") from exc
 
-    from core.nets import Encoder
+    from core.modelfree.networks import Encoder
 
     config = _config("ddpg", batch, buffer)
 

@@ -28,6 +28,8 @@ from typing import Any, Literal
 
 import yaml
 
+from core.task_levels import LEVELS
+
 
 class ConfigError(ValueError):
     """A user-caused configuration error (unknown key, bad value, unreadable file)."""
@@ -38,7 +40,7 @@ class RunConfig:
     """What to run and for how long."""
 
     algo: str = "ddpg"
-    """Method name, looked up in ``core.algos.ALGOS`` (ddpg, cacla, and the dual-system methods)."""
+    """Method name, looked up in ``core.runs.methods.ALGOS`` (ddpg, cacla, and the dual-system methods)."""
     seed: int = 0
     """Seed of the run's one generator family (NumPy, torch, PyBullet resets)."""
     episodes: int | None = 3000
@@ -75,7 +77,7 @@ class EnvConfig:
     """Keyword arguments of ``core.envs.NicoGraspEnv`` (see the environment contract)."""
 
     level: Literal["released", "paper", "hard"] = "released"
-    """Task level (core/envs/levels.py; calibrated in docs/environment.md): released, paper or hard."""
+    """Task level (core/task_levels.py; calibrated in docs/environment.md): released, paper or hard."""
     reward_mode: Literal["dense", "sparse"] = "dense"
     """Extrinsic reward of Section 4.1.2: dense shaping or 0 outside grasp/topple."""
     hand: Literal["auto", "learned"] | None = None
@@ -164,7 +166,7 @@ class DualConfig:
     e_max: float = 6.0
     """ITM mapping resolution e_max (Section 4.1.1)."""
     e_max_relative: float | None = None
-    """Scale-free e_max (core/itm_resolution.py): when set to ρ, e_max = ρ · the median pairwise L2 distance
+    """Scale-free e_max (dual/itm_resolution.py): when set to ρ, e_max = ρ · the median pairwise L2 distance
     among 256 of the last 2048 latents, refreshed every 256 states; None: absolute e_max (paper, released)."""
     itm_distance: Literal["l2", "squared"] = "l2"
     """Distance compared with e_max: l2 (released code) or squared L2 (paper text, Section 2.3.1)."""
@@ -195,7 +197,7 @@ class DualConfig:
     """A new ITM node's model: freshly initialised (released code) or copied from its parent node."""
     refit_every: int = 0
     """Refit the local models every N real steps on ``refit_batch`` replayed transitions re-encoded by the
-    current encoder, each sample to its nearest node (core/world_models.py ``refit``): a remedy for the
+    current encoder, each sample to its nearest node (core/dual/world_models.py ``refit``): a remedy for the
     latent drift of a jointly trained encoder, not in the paper. 0: never (paper, released code)."""
     refit_batch: int = 256
     """Transitions per refit step (one Eq. 5 Adam step of each node the batch touches)."""
@@ -332,8 +334,6 @@ def load_config(
 def resolve_level_defaults(config: Config) -> Config:
     """A config with what the task level decides filled in where it is left open (``env.hand`` None: the
     level's hand); `config` itself is not changed."""
-    from core.envs.levels import LEVELS
-
     if config.env.hand is not None:
         return config
     return dataclasses.replace(
@@ -525,8 +525,6 @@ def check_config(config: Config) -> None:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
     if not config.net.conv_channels or min(config.net.conv_channels) < 1:
         raise ConfigError("bad value for net.conv_channels: needs at least one positive channel count")
-    from core.envs.levels import LEVELS
-
     level = LEVELS[config.env.level]
     if config.env.hand is not None and config.env.hand not in level.hands:
         raise ConfigError(

@@ -29,7 +29,7 @@ def bench_env(
     """Env steps per second under random actions, beside the bare-PyBullet floor of the same scene."""
     with user_errors():
         from bench.env_speed import measure
-        from core.envs.levels import get_level
+        from core.task_levels import get_level
 
         get_level(level)
         result = measure(seconds=seconds, level=level)

@@ -28,7 +28,7 @@ def regions(
             raise ValueError(f"--e-max must be comma-separated numbers, got {e_max!r}") from None
         if not values or min(values) <= 0:
             raise ValueError(f"--e-max values must be > 0, got {e_max!r}")
-        from core.region_scale import region_scale
+        from core.runs.region_scale import region_scale
 
         result = region_scale(policy, episodes=episodes, e_max_values=values, seed=seed)
     if as_json:

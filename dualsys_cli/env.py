@@ -81,7 +81,7 @@ def calibrate_level(
 
     with user_errors():
         from core.envs.calibration import calibrate, constant_count
-        from core.envs.levels import get_level
+        from core.task_levels import get_level
 
         resolved_hand = hand or get_level(level).hand
         total = 2 + constant_count(resolved_hand)

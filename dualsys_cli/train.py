@@ -1,4 +1,4 @@
-"""`dualsys train`: train a method on NicoGrasp into a run directory (parse, call core.trainer.train, print).
+"""`dualsys train`: train a method on NicoGrasp into a run directory (parse, call runs.trainer.train, print).
 
 Config precedence: ``--profile`` → ``--config FILE`` → ``--set key=value`` (repeatable) → the explicit options
 (``--algo``, ``--ac``, ``--reward``, ``--seed``, ``--episodes``, ``--steps``, ``--minutes``). ``--resume DIR``
@@ -169,7 +169,7 @@ def train_command(
     as_json: bool = typer.Option(False, "--json", help="Print one JSON summary line."),
 ) -> None:
     """Train a vision-based grasping policy; Ctrl-C leaves a resumable checkpoint."""
-    from core.trainer import train
+    from core.runs.trainer import train
 
     with user_errors():
         config = build_config(
@@ -185,8 +185,8 @@ def train_command(
             steps=steps,
             minutes=minutes,
         )
-        from core.algos import resolve_algo
         from core.config import check_config
+        from core.runs.methods import resolve_algo
 
         config = resolve_algo(config)
         check_config(config)
@@ -195,7 +195,7 @@ def train_command(
             if resume is not None
             else (out or default_run_dir(config.run.algo, config.env.reward_mode))
         )
-        from core.run_dir import RunDirectory, RunDirectoryError
+        from core.runs.run_dir import RunDirectory, RunDirectoryError
 
         if resume is None and RunDirectory(run_dir).holds_run():
             raise RunDirectoryError(f"run directory {run_dir} already holds a run (resume it instead)")

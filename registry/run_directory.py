@@ -1,4 +1,4 @@
-"""Reading a training run directory (as `core.trainer.train` writes it) for registration.
+"""Reading a training run directory (as `core.runs.trainer.train` writes it) for registration.
 
 A run directory holds `config.yaml` (the resolved config), `summary.json` (the metrics summary),
 `metrics.csv`, `checkpoints/latest.pt` and `checkpoints/best.pt`, and maybe an exported `*.onnx`.

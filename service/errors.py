@@ -29,9 +29,5 @@ class SpecRejected(ServiceError):
     status_code = 422
 
 
-class JobKindUnavailable(RuntimeError):
-    """The library function a job kind needs is not installed; the job fails with this reason."""
-
-
 class LostOwnership(RuntimeError):
     """A worker found that its job was recovered or cancelled by someone else: it must stop."""

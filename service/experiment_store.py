@@ -83,7 +83,7 @@ def create_experiment(database: Database, store: ArtifactStore, *, content: str,
     """Validate the file, write its folder's experiment.yaml, queue one train job per cell; its id."""
     from core.experiments import expand_cells
     from core.experiments.cells import EXPERIMENT_FILE
-    from core.run_dir import atomic_write_text
+    from core.runs.run_dir import atomic_write_text
 
     spec = load_spec(content)
     with database.write() as session:

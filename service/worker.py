@@ -28,7 +28,6 @@ import traceback
 from pathlib import Path
 from typing import Any, TextIO
 
-from service.errors import JobKindUnavailable
 from service.job_execution import execute_job
 from service.json_values import jsonable
 
@@ -110,9 +109,6 @@ def run_worker(
             emit=lambda record: emit(record),
             should_stop=stop.is_set,
         )
-    except JobKindUnavailable as error:
-        events.send({"type": "error", "reason": str(error)})
-        return EXIT_DONE
     except Exception as error:
         traceback.print_exc()
         if stop.is_set():

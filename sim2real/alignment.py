@@ -16,7 +16,7 @@ batch size 512). Decisions where the paper is silent:
 * The final epoch's weights are kept (no selection on the held-out split, so its figures stay unbiased).
 
 Output: a new run directory (written to a hidden sibling folder, renamed at the end): ``config.yaml`` (the
-source's config), ``checkpoints/best.pt`` (loadable by ``core.policy.load_policy``, with an ``alignment``
+source's config), ``checkpoints/best.pt`` (loadable by ``core.runs.policy.load_policy``, with an ``alignment``
 record), ``summary.json`` (the figures) and ``alignment.csv`` (per-epoch train loss and held-out distance).
 """
 
@@ -40,9 +40,9 @@ import numpy as np
 import torch
 
 from core.config import Config
-from core.nets import Encoder, to_float_chw
-from core.policy import load_policy, resolve_checkpoint
-from core.run_dir import CHECKPOINT_FORMAT, load_checkpoint
+from core.modelfree.networks import Encoder, to_float_chw
+from core.runs.policy import load_policy, resolve_checkpoint
+from core.runs.run_dir import CHECKPOINT_FORMAT, load_checkpoint
 from sim2real.pair_dataset import PairDataError, load_pairs
 
 ALIGN_LR = 1e-3

@@ -6,7 +6,7 @@ execute". The trial succeeds as soon as ``robot.verify_grasp()`` confirms a gras
 is knocked over or after ``max_steps`` steps without a verified grasp. The next trial places the object
 again. The success rate is reported with its 95% Wilson score interval (:func:`wilson_interval`).
 
-The policy is any callable ``uint8 [N, 32, 64, 3] → actions [N, action_dim]``: ``core.policy.Policy.act``,
+The policy is any callable ``uint8 [N, 32, 64, 3] → actions [N, action_dim]``: ``runs.policy.Policy.act``,
 ``core.deploy.OnnxPolicy.act``, or a scripted policy in tests.
 """
 

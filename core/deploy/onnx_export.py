@@ -1,8 +1,8 @@
 """ONNX export of the deployable policy μ(f(s)) — encoder + actor as one graph — checked against PyTorch.
 
 The graph takes the camera image exactly as the robot delivers it: uint8 ``[N, 32, 64, 3]`` RGB (HWC), with
-a dynamic batch axis ``N``; the conversion to float CHW in [0, 1] is inside the graph (``core.nets.
-to_float_chw``), and so is the action scale (a registered buffer of ``Actor``). The output is ``[N,
+a dynamic batch axis ``N``; the conversion to float CHW in [0, 1] is inside the graph (``modelfree.networks
+.to_float_chw``), and so is the action scale (a registered buffer of ``Actor``). The output is ``[N,
 action_dim]``: ``[N, 1]`` (shoulder change) for the default ``hand="auto"`` policies, ``[N, 2]`` (shoulder
 change, close) for ``hand="learned"`` policies.
 
@@ -32,9 +32,9 @@ import numpy as np
 import torch
 
 from core.deploy.env_images import render_env_images
-from core.nets import PolicyNetwork
-from core.policy import Policy, load_policy
-from core.run_dir import atomic_write_bytes
+from core.modelfree.networks import PolicyNetwork
+from core.runs.policy import Policy, load_policy
+from core.runs.run_dir import atomic_write_bytes
 
 DEFAULT_OPSET = 17
 INPUT_NAME = "obs"

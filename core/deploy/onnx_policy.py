@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from core.policy import observation_batch
+from core.runs.policy import observation_batch
 
 
 class OnnxPolicyError(ValueError):

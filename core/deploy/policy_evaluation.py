@@ -17,7 +17,7 @@ from core.deploy.onnx_export import export_policy
 from core.deploy.onnx_policy import OnnxPolicy
 from core.deploy.robot import SimRobot
 from core.envs import CameraShift
-from core.policy import load_policy
+from core.runs.policy import load_policy
 
 DOMAINS = ("sim", "real")
 

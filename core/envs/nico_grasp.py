@@ -34,6 +34,7 @@ from __future__ import annotations
 import contextlib
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -50,12 +51,17 @@ from core.envs.camera import (
     apply_sensor_model,
     shifted_pose,
 )
-from core.envs.levels import get_level
 from core.envs.quiet_bullet import quiet_client
 from core.envs.robot_description import FINGER_NAMES, ArmGeometry
 from core.envs.scene_files import scene_file
+from core.task_levels import get_level
 
 REWARD_MODES = ("dense", "sparse")
+
+
+def _fma(a: float, b: float, c: float) -> float:
+    """a·b + c rounded once (``math.fma`` arrives in Python 3.13)."""
+    return float(Fraction(a) * Fraction(b) + Fraction(c))
 HAND_MODES = ("auto", "learned")
 DENSE_SHAPINGS = ("distance", "squared")
 DOMAINS = ("sim", "real")
@@ -289,8 +295,13 @@ class NicoGraspEnv(gym.Env):
         return tilt > self.topple_tilt_rad or off_table
 
     def _distance(self) -> float:
+        """The glass-to-hand distance, the same float on every CPU: sqrt(fma(z, z, fma(y, y, x·x))) with exact
+        fused multiply-adds. ``np.linalg.norm`` calls BLAS ``ddot``, whose rounding depends on the OpenBLAS
+        kernel the CPU selects (Haswell and SkylakeX kernels differ in the last bit), which made dense rewards
+        machine-dependent; this is the SkylakeX kernel's order, so the released level stays bit for bit."""
         pos, _ = self._glass_pose()
-        return float(np.linalg.norm(pos - self.hand_centre()))
+        x, y, z = (float(v) for v in np.asarray(pos, dtype=np.float64) - self.hand_centre())
+        return math.sqrt(_fma(z, z, _fma(y, y, x * x)))
 
     def _contact_both_sides(self) -> bool:
         links = {pt[4] for pt in self._client.getContactPoints(self._glass, self._robot)}

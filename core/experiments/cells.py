@@ -25,8 +25,9 @@ from typing import Any, Literal
 
 import yaml
 
-from core.experiments.runners import IGNORED_FOR_COMPARISON, EpisodeCallback, runner_for
-from core.experiments.spec import ExperimentError, ExperimentSpec
+from core.experiments.dispatch import runner_for
+from core.experiments.runners import IGNORED_FOR_COMPARISON, EpisodeCallback
+from core.experiments.spec import ExperimentError, ExperimentSpec, read_experiment
 
 CellState = Literal["done", "partial", "new"]
 
@@ -54,6 +55,18 @@ class Cell:
     @property
     def steps(self) -> int:
         return int(self.config["run"]["steps"])
+
+
+def load_experiment(source: Path | str | Mapping[str, Any]) -> ExperimentSpec:
+    """Read and validate an experiment (a YAML path, YAML text or a mapping) and resolve every method's config
+    (profile → common overrides → method overrides → the cell's keys), checked as ``dualsys train`` would, so
+    a file that loads runs. Raises :class:`ExperimentError`."""
+    spec = read_experiment(source)
+    for index, method in enumerate(spec.methods):
+        runner = runner_for(method.algo, where=f"methods[{index}].algo")
+        for reward in spec.rewards:
+            runner.resolve(spec, method, reward, spec.seeds[0])
+    return spec
 
 
 def experiment_dir(spec: ExperimentSpec, out: Path | str) -> Path:

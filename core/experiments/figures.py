@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from core.run_dir import atomic_write_bytes
+from core.runs.run_dir import atomic_write_bytes
 
 if TYPE_CHECKING:
     from core.experiments.spec import ExperimentSpec

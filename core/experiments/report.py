@@ -3,8 +3,8 @@
 Scores of one finished cell, from its run directory:
 
 * ``auc`` — Area under Curve of Section 4.1.2 on the cell's episodic rewards (metrics.csv,
-  ``core.metrics.area_under_curve``, baseline 0 as the text defines it); ``auc_from_minus1`` — the same
-  area measured from reward −1, the reading that fits the paper's Table 1 (see ``core.metrics``);
+  ``core.runs.metrics.area_under_curve``, baseline 0 as the text defines it); ``auc_from_minus1`` — the same
+  area measured from reward −1, the reading that fits the paper's Table 1 (see ``core.runs.metrics``);
 * ``final_perf`` — Final Performance: mean episodic reward of the last 500 training episodes;
 * ``success`` — the final greedy evaluation's success rate (summary.json ``success_rate``);
 * ``train_length`` — a diagnostic, not a score: the mean length in env steps of the last 500 training
@@ -33,9 +33,9 @@ from typing import Any, Literal
 import numpy as np
 
 from core.experiments.cells import EXPERIMENT_FILE, cell_dir, cell_state, read_summary
-from core.experiments.spec import ExperimentError, ExperimentSpec, load_experiment
-from core.metrics import area_under_curve, final_performance, smooth
-from core.run_dir import atomic_write_text
+from core.experiments.spec import ExperimentError, ExperimentSpec, read_experiment
+from core.runs.metrics import area_under_curve, final_performance, smooth
+from core.runs.run_dir import atomic_write_text
 
 METRICS: dict[str, str] = {
     "auc": "AuC",
@@ -127,7 +127,7 @@ def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord |
 def collect(directory: Path | str) -> tuple[ExperimentSpec, Path, list[CellRecord], list[str]]:
     """The experiment's spec, folder, finished cells and the keys of the missing ones."""
     root = find_experiment_dir(directory)
-    spec = load_experiment(root / EXPERIMENT_FILE, resolve=False)
+    spec = read_experiment(root / EXPERIMENT_FILE)
     records: list[CellRecord] = []
     missing: list[str] = []
     for method in spec.methods:
@@ -407,7 +407,7 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "",
         "- **AuC** (Section 4.1.2): area under the episodic-reward curve over the area under reward 1, "
         "mean(R) (baseline 0, the paper's text); **AuC (from −1)**: (mean(R) + 1) / 2, the reading that "
-        "fits the paper's Table 1 (docs in `core/metrics.py`).",
+        "fits the paper's Table 1 (docs in `core/runs/metrics.py`).",
         "- **Final Perf**: mean episodic reward over the last 500 training episodes.",
         "- **Training success**: share of the last 500 training episodes (with exploration) that ended in a "
         "verified grasp.",

@@ -22,7 +22,7 @@ from core.experiments.cells import (
 )
 from core.experiments.progress import ExperimentProgress, ProgressCallback
 from core.experiments.spec import ExperimentSpec
-from core.run_dir import atomic_write_text
+from core.runs.run_dir import atomic_write_text
 
 WORKER_LOG = "workers.log"
 """Local workers' stdout/stderr, appended, in the experiment folder."""

@@ -1,25 +1,23 @@
-"""Method → cell runner dispatch: which code trains a cell of a given ``algo``.
+"""Cell runners: the code that trains one cell of an experiment.
 
 A cell runner turns (experiment, method, reward, seed) into a resolved config (a plain nested dict, stored
 as the cell's ``config.yaml``) and trains it into a run directory, resuming from ``checkpoints/latest.pt``
-when asked. Every method registered in ``core.algos`` runs through :data:`TRAINER_RUNNER` (the shared
-``core.trainer.train`` loop). Another algorithm family — say a Stable-Baselines3 baseline under
-``algo: sb3-sac`` — plugs in with :func:`register_cell_runner` from a module listed in
-:data:`RUNNER_PLUGINS`, without touching the experiment runner.
+when asked. Every method of ``core.runs.methods`` runs through :data:`TRAINER_RUNNER` (the shared
+``core.runs.trainer.train`` loop); the Stable-Baselines3 peers have their own (``sb3_peer``), and
+``dispatch`` says which runner an ``algo`` takes.
 """
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from core.config import ConfigError
+from core.experiments.spec import ExperimentError, ExperimentSpec, MethodSpec
 
 if TYPE_CHECKING:
     from core.config import Config
-    from core.experiments.spec import ExperimentSpec, MethodSpec
 
 EpisodeCallback = Callable[[dict[str, Any]], None]
 
@@ -65,7 +63,7 @@ class ConfigCellRunner:
 
     def training_function(self) -> Callable[..., dict[str, Any]]:
         """``f(config, run_dir, *, resume, on_episode, should_stop, command) -> summary``, the signature of
-        ``core.trainer.train``."""
+        ``core.runs.trainer.train``."""
         raise NotImplementedError
 
     def normalise(self, stored: Mapping[str, Any]) -> dict[str, Any]:
@@ -85,7 +83,6 @@ class ConfigCellRunner:
         """``build()``'s config, checked, as the cell's nested dict; a ConfigError (from either) becomes the
         ExperimentError that names the method and the reward."""
         from core.config import check_config
-        from core.experiments.spec import ExperimentError
 
         try:
             config = build()
@@ -96,16 +93,16 @@ class ConfigCellRunner:
 
 
 class TrainerRunner(ConfigCellRunner):
-    """Cells of the methods in ``core.algos``: ``core.config`` + ``core.trainer.train``."""
+    """Cells of the methods in ``core.runs.methods``: ``core.config`` + ``core.runs.trainer.train``."""
 
     def training_function(self) -> Callable[..., dict[str, Any]]:
-        from core.trainer import train
+        from core.runs.trainer import train
 
         return train
 
     def resolve(self, spec: ExperimentSpec, method: MethodSpec, reward: str, seed: int) -> dict[str, Any]:
-        from core.algos import resolve_algo
         from core.config import load_config
+        from core.runs.methods import resolve_algo
 
         extra = {"agent.ac": method.ac} if method.ac is not None else {}
         items = cell_overrides(spec, method, reward, seed, algo=method.algo, extra=extra)
@@ -161,39 +158,3 @@ def cell_overrides(
 
 
 TRAINER_RUNNER = TrainerRunner()
-
-CELL_RUNNERS: dict[str, CellRunner] = {}
-"""Runners registered for algo names outside ``core.algos`` (e.g. ``sb3-sac``)."""
-
-RUNNER_PLUGINS: tuple[str, ...] = ("core.experiments.sb3_peer",)
-"""Modules that call :func:`register_cell_runner` when imported (missing ones are skipped)."""
-
-
-def register_cell_runner(algo: str, runner: CellRunner) -> None:
-    """Run cells whose method has ``algo`` with ``runner`` (replaces an earlier registration)."""
-    CELL_RUNNERS[algo] = runner
-
-
-def load_runners() -> dict[str, CellRunner]:
-    for module in RUNNER_PLUGINS:
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name != module:
-                raise
-    return CELL_RUNNERS
-
-
-def runner_for(algo: str, where: str = "algo") -> CellRunner:
-    """The runner of ``algo``: a registered family first, then the shared trainer for ``core.algos``."""
-    from core.algos import load_algos
-    from core.experiments.spec import ExperimentError
-
-    runners = load_runners()
-    if algo in runners:
-        return runners[algo]
-    algos = load_algos()
-    if algo in algos:
-        return TRAINER_RUNNER
-    known = sorted({*algos, *runners})
-    raise ExperimentError(f"bad value for {where}: unknown algo {algo!r} (choose from {', '.join(known)})")

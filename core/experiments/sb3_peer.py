@@ -1,21 +1,21 @@
 """A modern peer: Stable-Baselines3 SAC and TD3 from pixels, as methods of the experiment runner.
 
 ``train_sb3(config, run_dir, algo="sac"|"td3", resume=..., on_episode=..., should_stop=...) -> summary``
-has the contract of :func:`core.trainer.train`: the same training and evaluation envs
-(:func:`core.trainer.make_env`), the same budget (``run.steps`` / ``run.episodes`` / ``run.max_wall_s``,
+has the contract of :func:`core.runs.trainer.train`: the same training and evaluation envs
+(:func:`core.runs.trainer.make_env`), the same budget (``run.steps`` / ``run.episodes`` / ``run.max_wall_s``,
 checked at episode boundaries), the same first reset (``env.reset(seed=run.seed)``, then the env's own
 generator), greedy evaluations every ``run.eval_every`` training episodes with
-:func:`core.trainer.evaluate` (seeds ``EVAL_SEED + k``) and once at the end, and a run directory with the
-same files, metrics.csv keys and summary.json keys (AuC and Final Perf from :mod:`core.metrics`), so
+:func:`core.runs.trainer.evaluate` (seeds ``EVAL_SEED + k``) and once at the end, and a run directory with the
+same files, metrics.csv keys and summary.json keys (AuC and Final Perf from :mod:`core.runs.metrics`), so
 ``dualsys experiment report`` reads an SB3 cell like any other.
 
 The networks: SB3's ``CnnPolicy`` with its default heads (``net_arch=[256, 256]``, separate feature
 extractors for actor and critic) on :class:`DualsysEncoderExtractor`, our encoder f_ω of
-:mod:`core.nets` built from ``config.net`` (the default profile: stride-2 3×3 convolutions 16→32→32, a
-dense layer to the 32-d latent, ReLU). SB3's default NatureCNN needs images of at least 36 px on each
-side; ours are 32×64. SB3 moves images to channels-first (``VecTransposeImage``) and divides by 255 once
+:mod:`modelfree.networks` built from ``config.net`` (the default profile: stride-2 3×3 convolutions
+16→32→32, a dense layer to the 32-d latent, ReLU). SB3's default NatureCNN needs images of at least 36 px on
+each side; ours are 32×64. SB3 moves images to channels-first (``VecTransposeImage``) and divides by 255 once
 (``normalize_images=True``); the extractor receives float ``[N, 3, 32, 64]`` in [0, 1], the input
-:class:`core.nets.Encoder` expects, and does not scale again.
+:class:`core.modelfree.networks.Encoder` expects, and does not scale again.
 
 SB3's defaults everywhere except (docs/model-free.md, "A modern peer"): ``learning_starts``,
 ``buffer_size``, ``batch_size`` and ``gamma`` from ``config.agent`` (the same budget of warm-up, memory,
@@ -29,7 +29,7 @@ Checkpoints (``checkpoints/``), written at episode boundaries after that step's 
 * ``sb3-replay-<step>.pt`` — the replay buffer's filled part (``torch.save`` of uint8 arrays). Not
   ``save_replay_buffer``: it pickles the whole preallocated capacity (1.2 GB at 100k transitions of
   3×32×64 obs and next obs) however little is filled;
-* ``latest.pt`` — a dualsys checkpoint (``core.run_dir.load_checkpoint``) naming those two files, with
+* ``latest.pt`` — a dualsys checkpoint (``core.runs.run_dir.load_checkpoint``) naming those two files, with
   the counters, the evaluation history and every generator (torch, NumPy, Python, the action space's,
   the training env's), written last; older SB3 files are removed after it. Every write is atomic, so
   ``latest.pt`` always names a complete, consistent pair;
@@ -43,8 +43,7 @@ match). An uninterrupted run and a stopped-and-resumed one of the same seed give
 
 Stable-Baselines3 is optional (the ``bench`` extra); this module imports it only when a run starts, and
 a missing SB3 is the one-line :class:`core.experiments.spec.ExperimentError` of :func:`require_sb3`.
-Importing the module registers ``sb3-sac`` and ``sb3-td3`` with
-:func:`core.experiments.runners.register_cell_runner`.
+``core.experiments.dispatch`` sends the cells of ``sb3-sac`` and ``sb3-td3`` to :class:`SB3Runner`.
 """
 
 from __future__ import annotations
@@ -58,26 +57,23 @@ import random
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import torch
 from torch import nn
 
-from core.agent import generator_state, restore_generator
 from core.config import Config, ConfigError, NetConfig
 from core.experiments.runners import (
     ConfigCellRunner,
     EpisodeCallback,
     cell_overrides,
-    register_cell_runner,
 )
-from core.nets import Encoder
-from core.run_bookkeeping import RunBookkeeping, mean_dicts
-from core.run_dir import RunDirectoryError, atomic_torch_save, atomic_write_bytes
-
-if TYPE_CHECKING:
-    from core.experiments.spec import ExperimentSpec, MethodSpec
+from core.experiments.spec import ExperimentError, ExperimentSpec, MethodSpec
+from core.modelfree.agent import generator_state, restore_generator
+from core.modelfree.networks import Encoder
+from core.runs.bookkeeping import RunBookkeeping, mean_dicts
+from core.runs.run_dir import RunDirectoryError, atomic_torch_save, atomic_write_bytes
 
 try:  # the base class of the extractor; a stand-in keeps this module importable without SB3
     from stable_baselines3.common.torch_layers import BaseFeaturesExtractor as _FeaturesBase
@@ -118,8 +114,6 @@ def require_sb3(name: str = "sb3-sac") -> None:
     try:
         import stable_baselines3  # noqa: F401
     except ImportError:
-        from core.experiments.spec import ExperimentError
-
         raise ExperimentError(missing_sb3_message(name)) from None
 
 
@@ -127,8 +121,8 @@ def require_sb3(name: str = "sb3-sac") -> None:
 
 
 class DualsysEncoderExtractor(_FeaturesBase):
-    """SB3 features extractor = :class:`core.nets.Encoder` (our f_ω), so SAC/TD3 see pixels through the
-    same convolutional shape as our agents and the comparison isolates the algorithm.
+    """SB3 features extractor = :class:`modelfree.networks.Encoder` (our f_ω), so SAC/TD3 see pixels through
+    the same convolutional shape as our agents and the comparison isolates the algorithm.
 
     ``observation_space``: SB3's channels-first image space ``(3, H, W)`` (after ``VecTransposeImage``).
     ``forward`` takes what SB3's ``preprocess_obs`` makes of it: float ``[N, 3, H, W]`` already divided by
@@ -163,7 +157,7 @@ def extractor_kwargs(net: NetConfig) -> dict[str, Any]:
 
 
 def _env_rng_state(env: Any) -> dict[str, Any]:
-    from core.trainer import _env_rng_state as state
+    from core.runs.trainer import _env_rng_state as state
 
     return state(env)
 
@@ -186,7 +180,7 @@ def _make_reset_recorder(env: Any) -> Any:
 
 
 class GreedyPolicy:
-    """``core.trainer.evaluate``'s agent interface over an SB3 model: the deterministic action."""
+    """``core.runs.trainer.evaluate``'s agent interface over an SB3 model: the deterministic action."""
 
     def __init__(self, model: Any) -> None:
         self.model = model
@@ -241,7 +235,7 @@ def _load_replay_state(buffer: Any, state: Mapping[str, Any]) -> None:
 
 
 class _SB3Run(RunBookkeeping):
-    """State of one ``train_sb3`` call (the bookkeeping of ``core.trainer._Trainer``, SB3's training)."""
+    """State of one ``train_sb3`` call (the bookkeeping of ``core.runs.trainer._Trainer``, SB3's training)."""
 
     def __init__(
         self,
@@ -319,7 +313,7 @@ class _SB3Run(RunBookkeeping):
         return model
 
     def _restore(self, checkpoint: dict[str, Any], model: Any, env: Any) -> None:
-        from core.trainer import _restore_env_rng
+        from core.runs.trainer import _restore_env_rng
 
         if int(model.num_timesteps) != int(checkpoint["counters"]["global_step"]):
             raise RunDirectoryError(f"{self.dir.latest_path}: the SB3 model and the counters disagree")
@@ -372,7 +366,7 @@ class _SB3Run(RunBookkeeping):
                 path.unlink(missing_ok=True)
 
     def _evaluate(self, model: Any, eval_env: Any) -> dict[str, float]:
-        from core.trainer import evaluate
+        from core.runs.trainer import evaluate
 
         result = evaluate(GreedyPolicy(model), eval_env, self.config.run.eval_episodes)  # type: ignore[arg-type]
         if self._record_evaluation(result):
@@ -383,7 +377,7 @@ class _SB3Run(RunBookkeeping):
     def run(self) -> dict[str, Any]:
         from stable_baselines3.common.vec_env import DummyVecEnv
 
-        from core.trainer import make_env
+        from core.runs.trainer import make_env
 
         checkpoint = self._begin()
         cfg = self.config
@@ -421,7 +415,7 @@ class _SB3Run(RunBookkeeping):
     def _callback(self, model: Any, recorder: Any, env: Any) -> Any:
         from stable_baselines3.common.callbacks import BaseCallback
 
-        from core.trainer import make_env
+        from core.runs.trainer import make_env
 
         run = self
 
@@ -516,7 +510,7 @@ def train_sb3(
 ) -> dict[str, Any]:
     """Train SB3 ``algo`` (``sac`` or ``td3``) into ``run_dir`` (or continue it); returns the summary.
 
-    Same contract as :func:`core.trainer.train` (see the module docstring); ``config.run.algo`` is set to
+    Same contract as :func:`core.runs.trainer.train` (see the module docstring); ``config.run.algo`` is set to
     ``sb3-<algo>``. Raises ExperimentError (one line) when Stable-Baselines3 is not installed.
     """
     return _SB3Run(config, Path(run_dir), algo, resume, on_episode, should_stop, command).run()
@@ -527,7 +521,7 @@ def train_sb3(
 
 class SB3Runner(ConfigCellRunner):
     """Cells of ``sb3-sac`` / ``sb3-td3``: ``core.config`` (profile → overrides → the cell's keys, as for
-    every method) + :func:`train_sb3`. ``run.algo`` is the SB3 name (not in ``core.algos``)."""
+    every method) + :func:`train_sb3`. ``run.algo`` is the SB3 name (not in ``core.runs.methods``)."""
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -535,7 +529,6 @@ class SB3Runner(ConfigCellRunner):
 
     def resolve(self, spec: ExperimentSpec, method: MethodSpec, reward: str, seed: int) -> dict[str, Any]:
         from core.config import load_config
-        from core.experiments.spec import ExperimentError
 
         require_sb3(self.name)
         if method.ac is not None:
@@ -549,5 +542,3 @@ class SB3Runner(ConfigCellRunner):
         return functools.partial(train_sb3, algo=self.algo)
 
 
-for _name in SB3_ALGOS:
-    register_cell_runner(_name, SB3Runner(_name))

@@ -16,7 +16,7 @@ An experiment file is YAML::
     overrides: {agent.batch_size: 64}      # optional: config key=value for every method
     methods:
       - label: DDPG                 # folder and legend name: [A-Za-z0-9+._-]
-        algo: ddpg                  # a method of core.algos (or of a registered cell runner)
+        algo: ddpg                  # a method of core.runs.methods (or of a registered cell runner)
       - label: DDPG+IM2C
         algo: im2c
         ac: ddpg                    # actor update of a dual-system method: ddpg | cacla
@@ -161,24 +161,14 @@ class ExperimentSpec:
         return yaml.safe_dump(self.to_dict(), sort_keys=False, allow_unicode=True)
 
 
-def load_experiment(source: Path | str | Mapping[str, Any], *, resolve: bool = True) -> ExperimentSpec:
-    """Read and validate an experiment: a path to a YAML file, YAML text, or an already-parsed mapping.
+def read_experiment(source: Path | str | Mapping[str, Any]) -> ExperimentSpec:
+    """Read and validate an experiment's keys: a path to a YAML file, YAML text, or an already-parsed mapping.
 
-    With ``resolve`` (the default) every method's config is resolved (profile → common overrides → method
-    overrides → the cell's keys) and checked as ``dualsys train`` would, so a file that loads runs; a
-    report reads a stored experiment.yaml with ``resolve=False``. Raises :class:`ExperimentError`.
+    This checks the file's own keys; ``core.experiments.cells.load_experiment`` also resolves every method's
+    config, as ``dualsys train`` would. A report reads a stored experiment.yaml with this alone. Raises
+    :class:`ExperimentError`.
     """
-    data = _read(source)
-    spec = _parse(data)
-    if not resolve:
-        return spec
-    from core.experiments.runners import runner_for
-
-    for method in spec.methods:
-        runner = runner_for(method.algo, where=f"methods[{spec.methods.index(method)}].algo")
-        for reward in spec.rewards:
-            runner.resolve(spec, method, reward, spec.seeds[0])
-    return spec
+    return _parse(_read(source))
 
 
 def _read(source: Path | str | Mapping[str, Any]) -> Mapping[str, Any]:

@@ -20,7 +20,6 @@ from typing import Any
 from registry import PolicyRegistry
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
-from service.errors import JobKindUnavailable
 from service.executors.base import WorkerExit, drain_exits
 from service.job_follower import follow_job
 from service.job_recorder import JobRecorder
@@ -118,8 +117,6 @@ class RayExecutor:
                 code, detail = 4, f"ray task of job {job.id} lost its job"
             elif outcome.kind != "finished":
                 code, detail = 1, f"ray task of job {job.id} ended without a result"
-        except JobKindUnavailable as error:
-            recorder.finish("failed", reason=_cause_message(error).partition(": ")[2])
         except Exception as error:
             if entry.cancelled.is_set() or isinstance(error, self._cancel_errors()):
                 code, detail = EXIT_CANCELLED, f"ray task of job {job.id} was cancelled"

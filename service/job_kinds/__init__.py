@@ -4,7 +4,6 @@ Each kind is a `JobKind`: its spec model, a `run(context) -> summary` function e
 worker (process or Ray task; it never touches the database), whether an interrupted job can resume
 from its checkpoint, a `prepare` step run at submission (resolving `name@alias` references), and an
 `after_success` step run where the database is (registering an aligned policy, attaching an ONNX).
-A kind whose library function is not installed fails its job with `JobKindUnavailable`'s message.
 """
 
 from __future__ import annotations

@@ -18,39 +18,43 @@ from pydantic import BaseModel
 from registry.references import parse_policy_ref
 from service.errors import SpecRejected
 from service.job_kinds.base import JobContext, Submission
-from service.job_kinds.library import as_summary, call_with_options, library_function
 from service.job_kinds.policy_input import resolve_policy_input
 from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec
 
 if TYPE_CHECKING:
     from registry import PolicyRegistry
 
-ALIGN_FUNCTIONS = [("sim2real", "align_encoder"), ("sim2real.alignment", "align_encoder")]
-EVAL_FUNCTIONS = [("core.deploy", "evaluate_policy")]
-EXPORT_FUNCTIONS = [("core.deploy", "export_onnx")]
 ALIGNED_FOLDER = "aligned"
 """The aligned run directory inside an align job's run directory (registered as the new version)."""
+
+
+def _given(**options: Any) -> dict[str, Any]:
+    """The options a spec sets; those left None are not passed, so the library's defaults apply."""
+    return {key: value for key, value in options.items() if value is not None}
 
 
 def run_align(context: JobContext) -> dict[str, Any]:
     spec = context.spec
     assert isinstance(spec, AlignSpec)
-    align_encoder = library_function("align", ALIGN_FUNCTIONS)
-    result = call_with_options(
-        align_encoder,
-        policy_path=Path(context.resolved["checkpoint"]),
-        pairs_dir=Path(spec.pairs_dir).expanduser(),
-        out_dir=context.run_dir / ALIGNED_FOLDER,
-        epochs=spec.epochs,
-        batch_size=spec.batch_size,
+    from sim2real import align_encoder  # torch is imported by the worker, not by the API process
+
+    report = align_encoder(
+        **_given(
+            policy_path=Path(context.resolved["checkpoint"]),
+            pairs_dir=Path(spec.pairs_dir).expanduser(),
+            out_dir=context.run_dir / ALIGNED_FOLDER,
+            epochs=spec.epochs,
+            batch_size=spec.batch_size,
+        )
     )
-    return as_summary(result)
+    return report.to_dict()
 
 
 def run_eval(context: JobContext) -> dict[str, Any]:
     spec = context.spec
     assert isinstance(spec, EvalSpec)
-    evaluate = library_function("eval", EVAL_FUNCTIONS)
+    from core.deploy import evaluate_policy
+
     # an exported ONNX of the version is used as it is; otherwise the checkpoint (exported on the fly)
     source = (
         context.resolved["onnx"]
@@ -59,16 +63,17 @@ def run_eval(context: JobContext) -> dict[str, Any]:
     )
     if source is None:
         raise ValueError(f"{context.resolved['policy']} has no checkpoint to evaluate")
-    result = call_with_options(
-        evaluate,
-        policy_path=Path(source),
-        trials=spec.trials,
-        max_steps=spec.max_steps,
-        domain=spec.domain,
-        seed=spec.seed,
-        onnx=spec.onnx,
+    report = evaluate_policy(
+        **_given(
+            policy_path=Path(source),
+            trials=spec.trials,
+            max_steps=spec.max_steps,
+            domain=spec.domain,
+            seed=spec.seed,
+            onnx=spec.onnx,
+        )
     )
-    summary = as_summary(result)
+    summary = report.to_dict()
     summary.pop("per_trial", None)  # kept in the job's log; the summary stays small
     return summary
 
@@ -76,12 +81,13 @@ def run_eval(context: JobContext) -> dict[str, Any]:
 def run_export(context: JobContext) -> dict[str, Any]:
     spec = context.spec
     assert isinstance(spec, ExportSpec)
-    export = library_function("export", EXPORT_FUNCTIONS)
+    from core.deploy import export_onnx
+
     out = context.run_dir / spec.out
-    result = call_with_options(export, policy_path=Path(context.resolved["checkpoint"]), out=out)
+    report = export_onnx(policy_path=Path(context.resolved["checkpoint"]), out=out)
     if not out.is_file():
         raise RuntimeError(f"export finished without writing {spec.out}")
-    return {"onnx": spec.out, **as_summary(result)}
+    return {"onnx": spec.out, **report.to_dict()}
 
 
 def register_aligned(

@@ -1,4 +1,4 @@
-"""The `train` kind: `core.trainer.train` on the spec's resolved config (same as `dualsys train`)."""
+"""The `train` kind: `core.runs.trainer.train` on the spec's resolved config (same as `dualsys train`)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel
 
-from service.errors import JobKindUnavailable, SpecRejected
+from service.errors import SpecRejected
 from service.job_kinds.base import JobContext, Submission
 from service.schemas.specs import TrainSpec
 
@@ -20,8 +20,8 @@ LATEST_CHECKPOINT = Path("checkpoints") / "latest.pt"
 def prepare_train(spec: BaseModel, registry: PolicyRegistry) -> Submission:
     """Resolve the config now, so a bad combination is a 422 and the job records what it ran."""
     assert isinstance(spec, TrainSpec)
-    from core.algos import resolve_algo
     from core.config import ConfigError, check_config
+    from core.runs.methods import resolve_algo
 
     try:
         config = resolve_algo(load_train_config(spec))
@@ -36,12 +36,8 @@ def run_train(context: JobContext) -> dict[str, Any]:
     assert isinstance(spec, TrainSpec)
     if "cell" in context.resolved:
         return run_experiment_cell(context)
-    try:
-        from core.trainer import train
-    except ImportError as error:
-        raise JobKindUnavailable(
-            f"train jobs need core.trainer.train, which is not installed ({error})"
-        ) from error
+    from core.runs.trainer import train  # torch is imported by the worker, not by the API process
+
     config = load_train_config(spec)
     resume = context.resume and (context.run_dir / LATEST_CHECKPOINT).is_file()
     summary = train(
@@ -64,12 +60,8 @@ def load_train_config(spec: TrainSpec):  # type: ignore[no-untyped-def]
 def run_experiment_cell(context: JobContext) -> dict[str, Any]:
     """A cell of an experiment (service/experiment_store.py): `core.experiments.run_cell` on the cell's
     own resolved config, in the cell's folder; it skips a done cell, resumes a partial one, else starts."""
-    try:
-        from core.experiments import Cell, run_cell
-    except ImportError as error:
-        raise JobKindUnavailable(
-            f"experiment cells need core.experiments.run_cell, which is not installed ({error})"
-        ) from error
+    from core.experiments import Cell, run_cell
+
     cell = context.resolved["cell"]
     summary = run_cell(
         Cell(

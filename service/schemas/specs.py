@@ -203,12 +203,12 @@ def _config_profiles() -> set[str] | None:
 
 
 def _algo_names() -> set[str] | None:
-    """Method names the trainer knows (`core.algos.load_algos()`), or None if unavailable."""
+    """Method names the trainer knows (`core.runs.methods.ALGOS`), or None if unavailable."""
     try:
-        from core.algos import load_algos
+        from core.runs.methods import ALGOS
     except ImportError:
         return None
-    return set(load_algos())
+    return set(ALGOS)
 
 
 def _config_error(profile: str, overrides: list[str]) -> str | None:

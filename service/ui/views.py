@@ -254,12 +254,12 @@ DIAGNOSTIC_LAYOUT: tuple[tuple[str, str, tuple[str, ...]], ...] = (
 
 
 def diagnostic_groups() -> list[dict[str, Any]]:
-    """The panels with the legend names of `core.dual_diagnostics_panel` (the learning-curve PNG's).
+    """The panels with the legend names of `core.dual.diagnostics_panel` (the learning-curve PNG's).
 
     A key that panel draws but the layout does not name gets a panel of its own, so the browser never
     shows less than the PNG.
     """
-    from core.dual_diagnostics_panel import PANEL_KEYS
+    from core.dual.diagnostics_panel import PANEL_KEYS
 
     labels = dict(PANEL_KEYS)
     groups = [

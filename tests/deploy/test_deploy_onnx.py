@@ -18,7 +18,7 @@ from core.deploy import (
     render_env_images,
 )
 from core.deploy.onnx_export import onnx_bytes
-from core.policy import PolicyLoadError, load_policy
+from core.runs.policy import PolicyLoadError, load_policy
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from gymnasium.utils.env_checker import check_env
 from core.config import ConfigError, load_config
 from core.envs import NicoGraspEnv, run_oracle
 from core.envs.calibration import CONSTANT_SHOULDER_GRID, calibrate
-from core.envs.levels import LEVEL_NAMES, LEVELS
+from core.task_levels import LEVEL_NAMES, LEVELS
 
 DUALSYS = [sys.executable, "-m", "dualsys_cli.main"]
 

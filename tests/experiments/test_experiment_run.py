@@ -16,8 +16,8 @@ from typer.testing import CliRunner
 
 from core.config import load_config
 from core.experiments import cell_state, load_experiment, run_experiment
-from core.run_dir import load_checkpoint
-from core.trainer import train
+from core.runs.run_dir import load_checkpoint
+from core.runs.trainer import train
 from dualsys_cli.main import app
 from tests.experiments.conftest import tiny_experiment_data
 

@@ -10,7 +10,8 @@ import yaml
 from typer.testing import CliRunner
 
 from core.experiments import ExperimentError, expand_cells, load_experiment
-from core.experiments.runners import CELL_RUNNERS, TRAINER_RUNNER, register_cell_runner, runner_for
+from core.experiments.dispatch import CELL_RUNNERS, register_cell_runner, runner_for
+from core.experiments.runners import TRAINER_RUNNER
 from dualsys_cli.main import app
 from tests.experiments.conftest import tiny_experiment_data
 

@@ -21,8 +21,8 @@ from gymnasium import spaces
 
 from core.config import NetConfig, load_config
 from core.experiments import cell_state, expand_cells, load_experiment, run_cell, run_experiment
+from core.experiments.dispatch import runner_for
 from core.experiments.report import build_report
-from core.experiments.runners import runner_for
 from core.experiments.sb3_peer import (
     DualsysEncoderExtractor,
     SB3Runner,
@@ -31,9 +31,9 @@ from core.experiments.sb3_peer import (
     train_sb3,
 )
 from core.experiments.spec import ExperimentError
-from core.nets import Encoder
-from core.run_dir import load_checkpoint
-from core.trainer import RECORD_KEYS, train
+from core.modelfree.networks import Encoder
+from core.runs.run_dir import load_checkpoint
+from core.runs.trainer import RECORD_KEYS, train
 from dualsys_cli.main import app
 from tests.experiments.conftest import tiny_experiment_data
 
@@ -88,7 +88,7 @@ def test_sac_policy_sees_uint8_observations_through_the_extractor_once_scaled(tm
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     from core.experiments.sb3_peer import extractor_kwargs
-    from core.trainer import make_env
+    from core.runs.trainer import make_env
 
     config = load_config("default", TINY)
     env = make_env(config)
@@ -144,7 +144,7 @@ def test_tiny_sac_run_writes_the_trainers_files_and_keys(tmp_path):
     assert sum(int(r["charts/length"]) for r in data) == summary["steps"]
     assert all(r["eval/success_rate"] != "" for r in data if int(r["episode"]) % 8 == 0)
     assert any(r["losses/critic"] != "" for r in data)  # SAC updated after learning_starts
-    from core.metrics import area_under_curve, final_performance
+    from core.runs.metrics import area_under_curve, final_performance
 
     episode_returns = [float(r["charts/episodic_return"]) for r in data]
     assert summary["auc"] == pytest.approx(area_under_curve(episode_returns))

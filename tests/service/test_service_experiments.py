@@ -64,14 +64,10 @@ def test_experiment_cells_run_as_jobs_and_report_like_the_library(
         response = client.post("/experiments", json={"content": content, "workers": 1})
         assert response.status_code == 202, response.text
         created = response.json()
-        assert created["cells"] == {
-            "total": 2,
-            "done": 0,
-            "running": 0,
-            "queued": 2,
-            "failed": 0,
-            "cancelled": 0,
-        }
+        cells = created["cells"]
+        # a worker may claim the first job between the insert and the answer: queued or running, both new
+        assert (cells["total"], cells["done"], cells["failed"], cells["cancelled"]) == (2, 0, 0, 0), cells
+        assert cells["queued"] + cells["running"] == 2, cells
         assert [j["cell"] for j in created["jobs"]] == ["DDPG/sparse/seed-0", "CACLA/sparse/seed-0"]
         done = _wait_finished(client, created["id"], timeout=1500)
         assert done["status"] == "succeeded" and done["cells"]["done"] == 2, done

@@ -5,8 +5,6 @@ from __future__ import annotations
 import pytest
 from pydantic import ValidationError
 
-from service.errors import JobKindUnavailable
-from service.job_kinds.library import call_with_options, library_function
 from service.schemas.specs import ExportSpec, TrainSpec
 from service.settings import InsecureBindError, ServiceSettings, is_loopback
 
@@ -49,23 +47,6 @@ def test_train_spec_maps_to_config_overrides_like_the_cli() -> None:
     with pytest.raises(ValidationError):
         ExportSpec(policy="p@1", out="sub/x.onnx")
 
-
-def test_a_kind_without_its_library_fails_with_a_clear_reason() -> None:
-    with pytest.raises(JobKindUnavailable, match=r"align jobs need nowhere\.align_policy"):
-        library_function("align", [("nowhere", "align_policy")])
-    with pytest.raises(JobKindUnavailable, match=r"json\.no_such_function"):
-        library_function("eval", [("json", "no_such_function")])
-
-
-def test_call_with_options_passes_only_declared_options() -> None:
-    def evaluate(policy: str, trials: int = 25, domain: str = "sim") -> dict:
-        return {"policy": policy, "trials": trials, "domain": domain}
-
-    assert call_with_options(evaluate, "p", trials=3, domain=None, unknown=1) == {
-        "policy": "p",
-        "trials": 3,
-        "domain": "sim",
-    }
 
 
 def test_only_a_resume_checkpoint_makes_a_job_resumable(tmp_path) -> None:  # type: ignore[no-untyped-def]

@@ -157,7 +157,7 @@ def test_job_page_shows_config_artifacts_and_lineage(start_service: Callable[...
 
 
 def test_diagnostics_panels_cover_every_key_of_the_learning_curve_picture() -> None:
-    from core.dual_diagnostics_panel import PANEL_KEYS
+    from core.dual.diagnostics_panel import PANEL_KEYS
 
     drawn = [key for group in diagnostic_groups() for key, _ in group["series"]]
     assert sorted(drawn) == sorted(key for key, _ in PANEL_KEYS)

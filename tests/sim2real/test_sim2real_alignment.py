@@ -10,8 +10,8 @@ import pytest
 import torch
 
 from core.envs import CameraShift
-from core.policy import PolicyLoadError, load_policy
-from core.run_dir import load_checkpoint
+from core.runs.policy import PolicyLoadError, load_policy
+from core.runs.run_dir import load_checkpoint
 from sim2real import AlignmentError, PairDataError, align_encoder, generate_pairs, transfer_loss
 
 STRONG_SHIFT = CameraShift(colour_gain=(1.35, 0.8, 0.65), brightness=30.0, contrast=0.7, noise_std=2.0,

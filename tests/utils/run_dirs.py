@@ -1,4 +1,4 @@
-"""Factory: a run directory in the layout `core.trainer.train` writes, with real (tiny) files.
+"""Factory: a run directory in the layout `core.runs.trainer.train` writes, with real (tiny) files.
 
 Used where a test needs a registrable run directory without spending seconds on a training run;
 the end-to-end service tests register directories made by the real trainer instead.

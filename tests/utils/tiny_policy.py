@@ -1,4 +1,4 @@
-"""Factory: a real (tiny) trained run directory from ``core.trainer.train``, for deployment tests.
+"""Factory: a real (tiny) trained run directory from ``core.runs.trainer.train``, for deployment tests.
 
 The networks keep the default architecture's shape at a smaller width (so the encoder's latents are not
 degenerate and alignment has something to move); the env and learner settings are tiny so a run takes a
@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from core.config import load_config
-from core.trainer import train
+from core.runs.trainer import train
 
 TINY_DEPLOY = [
     "net.conv_channels=8,8,8", "net.latent_dim=16", "net.critic_hidden=8", "net.actor_hidden=8",

@@ -67,7 +67,7 @@
 
   // ------------------------------------------------------------------ numbers → pictures
   function smooth(values, window) {
-    // trailing mean over the last `window` finite values (as core.dual_diagnostics_panel)
+    // trailing mean over the last `window` finite values (as core.dual.diagnostics_panel)
     const out = new Array(values.length);
     const queue = [];
     let sum = 0;

@@ -1,0 +1,74 @@
+"""The intrinsically motivated meta-controller: reliability-based arbitration (Section 2.3.2, Alg. 2, 12-19).
+
+At each step, with φ_t and its best-matching node n:
+
+- LP_{t,n} ≥ 0 (reliable, `LocalWorldModels.reliable`) → model-based: the adaptive rollout of Alg. 1
+  (`core.dual.planning.plan_depth`) sets the horizon H, the rollout's actor actions are the initial plan,
+  K gradient steps on L_plan (Eq. 6-7, `core.dual.planning.optimise_plan`) give â^(K), whose first action
+  is returned;
+- otherwise → model-free: μ(φ_t).
+
+Exploration noise is the caller's job (Alg. 2 line 20), as is storing the rollout's imagined
+transitions (I2A, Alg. 3 line 17).
+
+``fixed_horizon=H`` turns the adaptive depth into the fixed-horizon MPC of DDPG+CMC: the rollout
+always runs H steps with the (single, global) model, arbitration still by LP ≥ 0. A rollout of depth
+0 (D_max = 0 or H = 0) falls back to the model-free action.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from core.config import DualConfig
+from core.dual.planning import ActorFn, PlanResult, Rollout, model_rollout, optimise_plan, plan_depth
+from core.dual.world_models import LocalWorldModels
+
+
+@dataclass(frozen=True)
+class MetaDecision:
+    """One meta-control decision: the action before noise, which system chose it, and the rollout/plan."""
+
+    action: torch.Tensor
+    """``[action_dim]``, before exploration noise."""
+    model_based: bool
+    rollout: Rollout | None = None
+    """The model rollout (adaptive or fixed length) when model-based; its rows are imagined transitions."""
+    plan: PlanResult | None = None
+
+
+class MetaController:
+    """Alg. 2 lines 12-19 over a `LocalWorldModels` (adaptive depth) or a global model (fixed horizon)."""
+
+    def __init__(self, world: LocalWorldModels, dual: DualConfig, fixed_horizon: int | None = None) -> None:
+        if fixed_horizon is not None and fixed_horizon < 0:
+            raise ValueError(f"fixed horizon must be >= 0, got {fixed_horizon}")
+        self.world = world
+        self.config = dual
+        self.fixed_horizon = fixed_horizon
+
+    def rollout(self, phi: torch.Tensor, node: int, actor: ActorFn) -> Rollout:
+        """Alg. 1's adaptive-length rollout, or a fixed-horizon one (CMC)."""
+        world = self.world
+        if self.fixed_horizon is not None:
+            return model_rollout(phi, node, world.bank, actor, self.fixed_horizon,
+                                 continue_at=lambda _i, _n: True, locate=world.nearest)
+        if world.itm is None:
+            return model_rollout(phi, node, world.bank, actor, self.config.d_max,
+                                 continue_at=lambda _i, n: world.reliable(n), locate=world.nearest)
+        return plan_depth(phi, node, world.lp, world.itm, world.bank, actor, self.config.d_max)
+
+    @torch.no_grad()
+    def decide(self, phi: torch.Tensor, node: int, actor: ActorFn) -> MetaDecision:
+        """Model-based (rollout + gradient MPC) when LP_{t,n} ≥ 0, else μ(φ_t)."""
+        phi = phi.reshape(1, -1)
+        if self.world.reliable(node):
+            rollout = self.rollout(phi, node, actor)
+            if rollout.depth > 0:
+                cfg = self.config
+                plan = optimise_plan(phi, rollout, self.world.bank, steps=cfg.plan_steps, lr=cfg.plan_lr,
+                                     objective=cfg.plan_objective, r_star=cfg.r_star)
+                return MetaDecision(action=plan.action, model_based=True, rollout=rollout, plan=plan)
+        return MetaDecision(action=actor(phi)[0], model_based=False)

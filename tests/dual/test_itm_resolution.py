@@ -1,0 +1,91 @@
+"""The scale-free ITM resolution (dual.e_max_relative) and the `dualsys diagnose regions` diagnostic."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+from core.config import load_config
+from core.dual.itm_resolution import RelativeResolution
+from core.dual.world_models import LocalWorldModels
+
+
+def test_relative_e_max_is_rho_times_the_median_pairwise_distance():
+    rng = np.random.default_rng(0)
+    latents = rng.normal(scale=0.01, size=(64, 8))
+    resolution = RelativeResolution(0.5, latent_dim=8, window=64, every=64, sample=64)
+    outputs = [resolution.observe(phi) for phi in latents]
+    assert outputs[:-1] == [None] * 63
+    diffs = latents[:, None] - latents[None]
+    distances = np.sqrt((diffs**2).sum(-1))[np.triu_indices(64, k=1)]
+    assert outputs[-1] == pytest.approx(0.5 * np.median(distances))
+
+
+def _world(*overrides: str) -> LocalWorldModels:
+    dual = load_config("default", list(overrides)).dual
+    return LocalWorldModels(dual, latent_dim=8, action_dim=1, generator=torch.Generator().manual_seed(0))
+
+
+def test_absolute_e_max_keeps_a_small_latent_cloud_in_two_nodes_and_relative_makes_regions():
+    latents = torch.from_numpy(np.random.default_rng(1).normal(scale=0.01, size=(1024, 8))).float()
+    absolute, relative = _world(), _world("dual.e_max_relative=0.8")
+    for phi in latents:
+        absolute.observe_state(phi)
+        relative.observe_state(phi)
+    assert absolute.num_nodes == 2  # e_max = 6 is far beyond every distance in this cloud
+    assert relative.num_nodes > 4
+    assert relative.itm.e_max == pytest.approx(relative.resolution.current)
+
+
+def test_relative_resolution_survives_a_checkpoint():
+    latents = torch.from_numpy(np.random.default_rng(2).normal(size=(600, 8))).float()
+    world = _world("dual.e_max_relative=1.0")
+    for phi in latents:
+        world.observe_state(phi)
+    restored = _world("dual.e_max_relative=1.0")
+    restored.load_state_dict(world.state_dict())
+    assert restored.itm.e_max == world.itm.e_max
+    assert restored.resolution.current == world.resolution.current
+    for phi in latents[:300]:  # the restored tracker continues exactly (same window, same sampling)
+        world.observe_state(phi)
+        restored.observe_state(phi)
+    assert restored.itm.e_max == world.itm.e_max and restored.num_nodes == world.num_nodes
+
+
+def test_bad_relative_e_max_is_a_config_error():
+    from core.config import ConfigError, check_config
+
+    with pytest.raises(ConfigError, match=r"dual\.e_max_relative"):
+        check_config(load_config("default", ["dual.e_max_relative=-1"]))
+
+
+def test_diagnose_regions_reports_distances_and_node_counts(tmp_path):
+    run = tmp_path / "run"
+    train = subprocess.run(
+        [sys.executable, "-m", "dualsys_cli.main", "train", "--algo", "ddpg", "--reward", "sparse",
+         "--steps", "40", "--set", "env.level=hard", "--set", "net.conv_channels=4,4",
+         "--set", "agent.learning_starts=10",
+         "--set", "run.eval_every=0", "--set", "run.eval_episodes=1", "--out", str(run)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert train.returncode == 0, train.stderr
+    result = subprocess.run(
+        [sys.executable, "-m", "dualsys_cli.main", "diagnose", "regions", str(run), "--episodes", "3",
+         "--e-max", "6,0.001", "--json"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    payload = json.loads(result.stdout)
+    assert payload["level"] == "hard" and payload["states"] >= 4
+    assert payload["nodes"]["6"] <= payload["nodes"]["0.001"]
+    assert payload["pairwise_distance"]["q05"] <= payload["pairwise_distance"]["q95"]
+    bad = subprocess.run(
+        [sys.executable, "-m", "dualsys_cli.main", "diagnose", "regions", str(run), "--e-max", "x"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert bad.returncode == 2 and "error: --e-max" in bad.stderr

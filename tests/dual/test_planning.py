@@ -1,0 +1,116 @@
+"""Algorithm 1 (adaptive planning depth) and Eq. 6-7 (gradient MPC over the local models)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+import torch
+from torch import nn
+
+from core.dual.itm import InstantaneousTopologicalMap
+from core.dual.learning_progress import LearningProgress
+from core.dual.model_bank import ModelBank
+from core.dual.planning import Rollout, optimise_plan, plan_depth, plan_loss
+
+
+def _chain(n_nodes: int, reliable: list[bool]):
+    """Nodes at (10k, 0); node k's model predicts exactly node k+1's position and reward 0.1·k."""
+    itm = InstantaneousTopologicalMap(dim=2, e_max=1.0, initial_weights=np.array([[0.0, 0.0], [10.0, 0.0]]))
+    for k in range(2, n_nodes):
+        assert itm.update(np.array([10.0 * k, 0.0])).added == (k,)
+    bank = ModelBank(latent_dim=2, action_dim=1, hidden=3, initial_capacity=n_nodes)
+    for name in ("w1", "b1", "wm", "wr"):
+        bank.params[name].zero_()
+    bank.params["bm"][:n_nodes] = torch.tensor([[10.0 * (k + 1), 0.0] for k in range(n_nodes)])
+    bank.params["br"][:n_nodes, 0] = torch.tensor([0.1 * k for k in range(n_nodes)])
+    lp = LearningProgress(window=1, history=1)
+    for k, ok in enumerate(reliable):
+        lp.record([k, k], [2.0, 1.0] if ok else [1.0, 2.0])  # LP = +1 or −1
+    return itm, bank, lp
+
+
+def _actor() -> nn.Module:
+    torch.manual_seed(0)
+    return nn.Sequential(nn.Linear(2, 1), nn.Tanh())
+
+
+def test_depth_stops_at_first_negative_lp_node() -> None:
+    itm, bank, lp = _chain(6, [True, True, False, True, True, True])
+    rollout = plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6)
+    assert rollout.depth == 2
+    assert rollout.nodes.tolist() == [0, 1]
+    torch.testing.assert_close(rollout.next_latents, torch.tensor([[10.0, 0.0], [20.0, 0.0]]))
+    # Each row is an imagined transition (φ_i, â_i, r̂_i, φ̂_{i+1}) and the rows chain.
+    torch.testing.assert_close(rollout.latents[1], rollout.next_latents[0])
+    torch.testing.assert_close(rollout.rewards, torch.tensor([0.0, 0.1]))
+    torch.testing.assert_close(rollout.actions, _actor()(rollout.latents).detach())
+
+
+def test_depth_stops_at_d_max() -> None:
+    itm, bank, lp = _chain(8, [True] * 8)
+    assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=3).depth == 3
+    assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6).depth == 6
+
+
+def test_depth_zero_when_start_node_unreliable_or_without_history() -> None:
+    itm, bank, lp = _chain(4, [False, True, True, True])
+    assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6).depth == 0
+    itm, bank, lp = _chain(4, [])
+    assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6).depth == 0
+
+
+def _random_setup(activation: str = "linear"):
+    bank = ModelBank(latent_dim=4, action_dim=1, hidden=20, output_activation=activation,
+                     generator=torch.Generator().manual_seed(7), initial_capacity=8)
+    nodes = torch.tensor([2, 5, 5, 1])
+    g = torch.Generator().manual_seed(1)
+    phi = torch.rand(4, generator=g)
+    plan = torch.rand(4, 1, generator=g) * 2 - 1
+    return bank, nodes, phi, plan
+
+
+@pytest.mark.parametrize("objective", ["sum", "per_step"])
+@pytest.mark.parametrize("activation", ["linear", "released"])
+def test_mpc_steps_lower_the_plan_loss_with_models_fixed(objective: str, activation: str) -> None:
+    bank, nodes, phi, plan = _random_setup(activation)
+    before = {k: v.clone() for k, v in bank.params.items()}
+    rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
+                      next_latents=phi[None].repeat(4, 1), nodes=nodes)
+    losses = []
+    for k in range(0, 11, 2):
+        result = optimise_plan(phi, rollout, bank, steps=k, lr=0.05, objective=objective, r_star=1.0)
+        losses.append(result.final_loss)
+    assert all(b < a for a, b in itertools.pairwise(losses)), losses
+    # The paper's α_plan = 1e-3 and K = 10 also lower the loss (a little).
+    small = optimise_plan(phi, rollout, bank, steps=10, lr=1e-3, objective=objective)
+    assert small.final_loss < small.initial_loss
+    ref = plan_loss(phi, small.plan, nodes, bank, objective)
+    assert float(ref) == pytest.approx(small.final_loss, rel=1e-5)
+    for k, v in before.items():
+        assert torch.equal(bank.params[k], v)
+    assert -1.0 <= float(small.action[0]) <= 1.0
+
+
+@pytest.mark.parametrize("objective", ["sum", "per_step"])
+@pytest.mark.parametrize("activation", ["linear", "released"])
+def test_hand_written_gradient_equals_autograd(objective: str, activation: str) -> None:
+    bank, nodes, phi, plan = _random_setup(activation)
+    a = plan.clone().requires_grad_(True)
+    loss = plan_loss(phi, a, nodes, bank, objective, r_star=0.7)
+    (grad,) = torch.autograd.grad(loss, a)
+    rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
+                      next_latents=phi[None].repeat(4, 1), nodes=nodes)
+    one = optimise_plan(phi, rollout, bank, steps=1, lr=1.0, objective=objective, r_star=0.7)
+    torch.testing.assert_close(plan - one.plan, grad, atol=1e-5, rtol=1e-4)
+    assert one.initial_loss == pytest.approx(float(loss.detach()), rel=1e-5)
+
+
+def test_optimise_plan_rejects_empty_rollout_and_bad_objective() -> None:
+    itm, bank, lp = _chain(3, [False])
+    empty = plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6)
+    with pytest.raises(ValueError, match="depth"):
+        optimise_plan(torch.zeros(2), empty, bank)
+    with pytest.raises(ValueError, match="objective"):
+        optimise_plan(torch.zeros(2), empty, bank, objective="max")

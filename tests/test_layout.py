@@ -1,0 +1,101 @@
+"""The package layout's contract (core/__init__.py, DESIGN.md): `core` is grouped by the paper's parts, its
+packages stack without an arrow back up, nothing in the project imports in a circle, and `core` imports none
+of the other dualsys packages. Every import counts, the ones inside functions too."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("core", "dualsys_cli", "registry", "service", "sim2real", "bench")
+
+CORE_FLOORS = {
+    "core.task_levels": 0,
+    "core.config": 1,
+    "core.envs": 2,
+    "core.modelfree": 3,
+    "core.dual": 4,
+    "core.runs": 5,
+    "core.experiments": 6,
+    "core.deploy": 6,
+}
+"""The floor of each part of ``core``: a module may import its own part and the floors below."""
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _modules() -> dict[str, Path]:
+    return {
+        _module_name(path): path for package in PACKAGES for path in sorted((ROOT / package).rglob("*.py"))
+    }
+
+
+def _imports(path: Path, known: set[str]) -> set[str]:
+    """The project modules `path` imports (``from a.b import c`` counts as a.b.c when that is a module)."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            for alias in node.names:
+                if f"{node.module}.{alias.name}" in known:
+                    found.add(f"{node.module}.{alias.name}")
+            if node.module in known:
+                found.add(node.module)
+        elif isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names if alias.name in known)
+    return found
+
+
+def _floor(module: str) -> tuple[str, int]:
+    for part, floor in CORE_FLOORS.items():
+        if module == part or module.startswith(part + "."):
+            return part, floor
+    raise AssertionError(f"{module} is in no part of core: add it to a package (core/__init__.py)")
+
+
+def test_core_has_at_most_five_modules_beside_its_packages() -> None:
+    loose = sorted(p.name for p in (ROOT / "core").glob("*.py") if p.name != "__init__.py")
+    assert len(loose) <= 5, loose
+
+
+def test_core_packages_stack_without_an_arrow_back_up() -> None:
+    modules = _modules()
+    upward = []
+    for module, path in modules.items():
+        if not module.startswith("core.") or module == "core":
+            continue
+        part, floor = _floor(module)
+        for target in _imports(path, set(modules)):
+            assert target.split(".")[0] == "core", f"core imports another dualsys package: {module}→{target}"
+            if target == "core":
+                continue
+            target_part, target_floor = _floor(target)
+            if target_part != part and target_floor >= floor:
+                upward.append(f"{module} → {target}")
+    assert not upward, upward
+
+
+def test_no_import_circle_anywhere() -> None:
+    modules = _modules()
+    graph = {module: _imports(path, set(modules)) for module, path in modules.items()}
+    state: dict[str, int] = {}
+    circles: list[list[str]] = []
+
+    def visit(module: str, stack: list[str]) -> None:
+        state[module] = 1
+        stack.append(module)
+        for target in graph[module]:
+            if state.get(target) == 1:
+                circles.append([*stack[stack.index(target) :], target])
+            elif not state.get(target):
+                visit(target, stack)
+        stack.pop()
+        state[module] = 2
+
+    for module in graph:
+        if not state.get(module):
+            visit(module, [])
+    assert not circles, circles[:3]

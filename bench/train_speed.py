@@ -8,9 +8,13 @@ Methods (``--algos``):
   agent, per-step schedule, the same loop (so a dual-system step includes its meta-control, model learning
   and, for I2A, the pixel + latent update).
 * ``sb3-ddpg`` — Stable-Baselines3's DDPG (the tool a user would pick instead) on the same env with the
-  same encoder shape (our ``Encoder`` as its features extractor, so conv stack + dense to 32), heads of
-  20 units, the same batch size and buffer size, ``train_freq=1, gradient_steps=1``. SB3 has no decoder
-  and gives actor and critic separate encoders (its default for DDPG).
+  same encoder shape (our encoder as its features extractor: the conv stack + dense to 32 for images, the
+  MLP to 32 for vectors), heads of 20 units, the same batch size and buffer size, ``train_freq=1,
+  gradient_steps=1``. SB3 has no decoder and gives actor and critic separate encoders (its default for
+  DDPG).
+
+``env`` is any gymnasium id (default NicoGrasp); e.g. ``MountainCarContinuous-v0`` times the methods on a
+vector task, where the env step is nearly free and the figures are the learners' own cost.
 
 Each method first collects ``warmup`` steps without updates (learning_starts), then ``steps`` timed
 steps with one update each; ``rounds`` alternate the methods and the median per method is reported.
@@ -29,7 +33,7 @@ import torch
 from core.config import Config, load_config
 from core.modelfree.agent import Transition
 from core.runs.methods import make_agent
-from core.runs.trainer import env_spec, make_env
+from core.runs.trainer import make_env
 
 METHODS = ("ddpg", "cacla", "sb3-ddpg")
 """The model-free methods and the SB3 reference; every method in ``core.runs.methods`` is accepted too."""
@@ -42,9 +46,10 @@ def known_methods() -> tuple[str, ...]:
     return tuple(dict.fromkeys((*METHODS, *sorted(ALGOS))))
 
 
-def _config(algo: str, batch: int | None, buffer: int) -> Config:
+def _config(algo: str, batch: int | None, buffer: int, env: str | None = None) -> Config:
     overrides = [
         f"run.algo={algo}",
+        *([f"env.id={env}"] if env else []),
         f"agent.buffer_size={buffer}",
         "agent.update_schedule=per_step",
         "agent.updates_per_step=1",
@@ -54,12 +59,15 @@ def _config(algo: str, batch: int | None, buffer: int) -> Config:
     return load_config("default", overrides)
 
 
-def _ours(algo: str, batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> tuple[float, int]:
-    config = _config(algo, batch, buffer)
+def _ours(
+    algo: str, batch: int | None, buffer: int, warmup: int, steps: int, seed: int, env_id: str | None = None
+) -> tuple[float, int]:
+    config = _config(algo, batch, buffer, env_id)
     config.agent.learning_starts = warmup
     torch.manual_seed(seed)
-    env = make_env(config)
-    agent = make_agent(config, env_spec(env), np.random.default_rng(seed))
+    adapted = make_env(config)
+    env = adapted.env
+    agent = make_agent(config, adapted.spec, np.random.default_rng(seed))
     obs, _ = env.reset(seed=seed)
     agent.begin_episode(obs)
     start = 0.0
@@ -79,7 +87,9 @@ def _ours(algo: str, batch: int | None, buffer: int, warmup: int, steps: int, se
     return 1000.0 * elapsed / steps, config.agent.batch_size
 
 
-def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> tuple[float, int]:
+def _sb3(
+    batch: int | None, buffer: int, warmup: int, steps: int, seed: int, env_id: str | None = None
+) -> tuple[float, int]:
     try:
         from stable_baselines3 import DDPG
         from stable_baselines3.common.callbacks import BaseCallback
@@ -88,19 +98,24 @@ def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> 
     except ImportError as exc:  # the bench extra is not installed
         raise ValueError("sb3-ddpg needs stable-baselines3: pip install -e '.[bench]'") from exc
 
-    from core.modelfree.networks import Encoder
+    from core.modelfree.networks import Encoder, make_encoder
 
-    config = _config("ddpg", batch, buffer)
+    config = _config("ddpg", batch, buffer, env_id)
+    adapted = make_env(config)
+    spec = adapted.spec
 
     class SameEncoder(BaseFeaturesExtractor):
-        """Our encoder shape as SB3's features extractor (SB3 feeds CHW floats in [0, 1])."""
+        """Our encoder shape as SB3's features extractor (SB3 feeds images as CHW floats in [0, 1], vectors
+        as they are, which our vector encoder scales)."""
 
         def __init__(self, observation_space: Any) -> None:
             super().__init__(observation_space, features_dim=config.net.latent_dim)
-            self.encoder = Encoder(config.net)
+            self.encoder = make_encoder(config.net, spec)
 
         def forward(self, observations: torch.Tensor) -> torch.Tensor:
-            return self.encoder(observations)
+            if isinstance(self.encoder, Encoder):
+                return self.encoder(observations)
+            return self.encoder(self.encoder.prepare(observations))
 
     class Timer(BaseCallback):
         def __init__(self) -> None:
@@ -112,9 +127,10 @@ def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> 
                 self.start = time.perf_counter()
             return True
 
-    env = make_env(config)
+    env = adapted.env
+    action_dim = spec.action_dim
     model = DDPG(
-        "CnnPolicy",
+        "CnnPolicy" if spec.obs_kind == "image" else "MlpPolicy",
         env,
         learning_rate=config.agent.critic_lr,
         buffer_size=buffer,
@@ -124,11 +140,11 @@ def _sb3(batch: int | None, buffer: int, warmup: int, steps: int, seed: int) -> 
         gamma=config.agent.gamma,
         train_freq=1,
         gradient_steps=1,
-        action_noise=NormalActionNoise(np.zeros(1), np.full(1, config.agent.noise_std)),
+        action_noise=NormalActionNoise(np.zeros(action_dim), np.full(action_dim, config.agent.noise_std)),
         policy_kwargs={
             "features_extractor_class": SameEncoder,
-            "net_arch": {"pi": [20], "qf": [20]},
-            "normalize_images": True,
+            "net_arch": {"pi": [config.net.actor_hidden], "qf": [config.net.critic_hidden]},
+            "normalize_images": spec.obs_kind == "image",
         },
         seed=seed,
         device="cpu",
@@ -150,8 +166,9 @@ def measure(
     buffer: int = 100_000,
     seed: int = 0,
     threads: int | None = None,
+    env: str | None = None,
 ) -> dict[str, Any]:
-    """ms per training step for each method (median over ``rounds`` alternating rounds).
+    """ms per training step for each method (median over ``rounds`` alternating rounds) on ``env``.
 
     ``threads``: torch threads for both (default: the default profile's ``run.num_threads``).
     """
@@ -167,9 +184,9 @@ def measure(
     for _ in range(rounds):
         for name in algos:
             if name == "sb3-ddpg":
-                ms, used_batch = _sb3(batch, buffer, warmup, steps, seed)
+                ms, used_batch = _sb3(batch, buffer, warmup, steps, seed, env)
             else:
-                ms, used_batch = _ours(name, batch, buffer, warmup, steps, seed)
+                ms, used_batch = _ours(name, batch, buffer, warmup, steps, seed, env)
             samples[name].append(ms)
             batches[name] = used_batch
     result: dict[str, Any] = {
@@ -180,6 +197,7 @@ def measure(
         }
         for name, values in samples.items()
     }
+    result["env"] = env or "dualsys/NicoGrasp-v0"
     result["threads"] = threads
     result["timed_steps"] = steps
     return result

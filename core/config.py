@@ -17,6 +17,7 @@ the field's declared type (``"64"`` → 64, ``"true"`` → True, ``"none"`` → 
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import types
@@ -72,10 +73,25 @@ class RunConfig:
     """Sliding window (episodes) of the learning-curve PNG (Fig. 8: 250 dense, 375 sparse)."""
 
 
+NICO_GRASP_ID = "dualsys/NicoGrasp-v0"
+"""The gymnasium id of the paper's task (registered by ``core.envs``); the default environment."""
+
+
 @dataclass
 class EnvConfig:
-    """Keyword arguments of ``core.envs.NicoGraspEnv`` (see the environment contract)."""
+    """The environment: any gymnasium id (``id``, ``kwargs``); the other fields are NicoGrasp's keyword
+    arguments and apply only when ``id`` is NicoGrasp (see docs/environment.md)."""
 
+    id: str = NICO_GRASP_ID
+    """Gymnasium id of the task: NicoGrasp (default), or any registered id of an installed package, e.g.
+    MountainCarContinuous-v0, Pendulum-v1, dm_control/cartpole-swingup_sparse-v0 (the ``dmc`` extra)."""
+    kwargs: dict[str, Any] = field(default_factory=dict)
+    """Keyword arguments of ``gymnasium.make(id, ...)`` for a task other than NicoGrasp (a YAML/JSON
+    mapping)."""
+    success: Literal["info", "terminated"] = "info"
+    """What counts as a successful episode: info: the env's ``info["success"]`` (or ``is_success``) at the
+    episode's end (NicoGrasp's grasp); terminated: the episode terminated before truncation (the goal of
+    MountainCar, whose only termination is reaching it)."""
     level: Literal["released", "paper", "hard"] = "released"
     """Task level (core/task_levels.py; calibrated in docs/environment.md): released, paper or hard."""
     reward_mode: Literal["dense", "sparse"] = "dense"
@@ -91,6 +107,11 @@ class EnvConfig:
     """Episode length limit (truncation)."""
     domain: Literal["sim", "real"] = "sim"
     """Which camera renders observations."""
+
+    @property
+    def reward_label(self) -> str:
+        """The reward's name in summaries and cell folders: NicoGrasp's mode, or ``task`` (the env's own)."""
+        return self.reward_mode if self.id == NICO_GRASP_ID else "task"
 
 
 @dataclass
@@ -110,6 +131,9 @@ class NetConfig:
     """Actor hidden units (φ → hidden → tanh action)."""
     actor_activation: Literal["relu", "tanh"] = "relu"
     """Actor hidden activation: relu (paper text: ReLU everywhere but outputs) or tanh (released code)."""
+    mlp_hidden: tuple[int, ...] = (64, 64)
+    """Hidden layers of the encoder f_ω (and, mirrored, the decoder) for vector observations: an MLP with
+    ReLU to the latent φ, in place of the convolutions (which images get)."""
 
 
 @dataclass
@@ -259,9 +283,7 @@ class Config:
 
 
 def _deep_copy(config: Config) -> Config:
-    return Config(
-        **{f.name: dataclasses.replace(getattr(config, f.name)) for f in dataclasses.fields(config)}
-    )
+    return copy.deepcopy(config)
 
 
 def _paper_profile() -> Config:
@@ -444,6 +466,13 @@ def coerce(raw: Any, annotation: Any, key: str) -> Any:
             return float(str(raw).replace("_", "")) if isinstance(raw, str) else float(raw)
         except (TypeError, ValueError):
             raise ConfigError(f"bad value for {key}: {raw!r} (expected a number)") from None
+    if origin is dict or annotation is dict:
+        value = yaml.safe_load(raw) if isinstance(raw, str) else raw
+        if value is None:
+            return {}
+        if not isinstance(value, Mapping):
+            raise ConfigError(f"bad value for {key}: {raw!r} (expected a mapping, e.g. {{g: 9.8}})")
+        return {str(k): v for k, v in value.items()}
     if annotation is str:
         if isinstance(raw, dict | list):
             raise ConfigError(f"bad value for {key}: {raw!r} (expected a string)")
@@ -525,6 +554,10 @@ def check_config(config: Config) -> None:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
     if not config.net.conv_channels or min(config.net.conv_channels) < 1:
         raise ConfigError("bad value for net.conv_channels: needs at least one positive channel count")
+    if not config.net.mlp_hidden or min(config.net.mlp_hidden) < 1:
+        raise ConfigError("bad value for net.mlp_hidden: needs at least one positive layer width")
+    if not config.env.id.strip():
+        raise ConfigError("bad value for env.id: empty (a gymnasium id, e.g. MountainCarContinuous-v0)")
     level = LEVELS[config.env.level]
     if config.env.hand is not None and config.env.hand not in level.hands:
         raise ConfigError(

@@ -58,6 +58,7 @@ def bench_train(
     batch: int = typer.Option(None, min=1, help="Minibatch size (default: the default profile's)."),
     steps: int = typer.Option(300, min=10, help="Timed training steps per method and round."),
     rounds: int = typer.Option(2, min=1, help="Alternating rounds; the median is reported."),
+    env: str = typer.Option(None, "--env", help="Gymnasium id (default: NicoGrasp)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
 ) -> None:
     """Milliseconds per training step (env step + one update): dualsys vs Stable-Baselines3 DDPG."""
@@ -69,6 +70,7 @@ def bench_train(
             batch=batch,
             steps=steps,
             rounds=rounds,
+            env=env,
         )
     _emit(result, as_json)
 

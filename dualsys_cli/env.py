@@ -65,9 +65,16 @@ def check(
 
 @app.command("calibrate")
 def calibrate_level(
-    level: str = typer.Option(..., help=LEVEL_HELP),
+    level: str = typer.Option(None, help=LEVEL_HELP + " (NicoGrasp; default released)"),
+    env: str = typer.Option(
+        None, "--env", help="Calibrate another gymnasium task instead (random and constant actions)."
+    ),
+    env_kwargs: str = typer.Option(None, "--env-kwargs", help="gymnasium.make arguments of --env (YAML)."),
+    success: str = typer.Option(
+        "info", "--success", help="With --env: success is info['success'] (info) or termination (terminated)."
+    ),
     reward: str = typer.Option("sparse", help="Reward mode: dense | sparse."),
-    episodes: int = typer.Option(100, min=1, help="Seeded episodes per policy (the same positions for all)."),
+    episodes: int = typer.Option(None, min=1, help="Seeded episodes per policy (NicoGrasp 100, --env 20)."),
     hand: str | None = typer.Option(None, help=HAND_HELP),
     seed: int = typer.Option(0, help="Seed of the first episode (episode i uses seed + i)."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
@@ -76,9 +83,15 @@ def calibrate_level(
     ),
 ) -> None:
     """Success and topple rates of the oracle, a uniform random policy and every constant action (shoulder
-    −1..1 in steps of 0.1; with the learned hand each with close and with open), and the best constant."""
+    −1..1 in steps of 0.1; with the learned hand each with close and with open), and the best constant. With
+    --env: any gymnasium task's random and constant policies (success rate and mean return; no oracle)."""
     from rich.progress import Progress
 
+    if env is not None and env != "dualsys/NicoGrasp-v0":
+        _calibrate_task(env, env_kwargs, success, episodes or 20, seed, as_json, with_constants)
+        return
+    level = level or "released"
+    episodes = episodes or 100
     with user_errors():
         from core.envs.calibration import calibrate, constant_count
         from core.task_levels import get_level
@@ -109,6 +122,57 @@ def calibrate_level(
         f"  best constant  success {best['success']:6.1%}  toppled {best['toppled']:6.1%}"
         f"  action {best['action']}"
     )
+
+
+def _calibrate_task(
+    env_id: str,
+    env_kwargs: str | None,
+    success: str,
+    episodes: int,
+    seed: int,
+    as_json: bool,
+    constants: bool,
+) -> None:
+    from rich.progress import Progress
+
+    with user_errors():
+        from core.config import EnvConfig, coerce
+        from core.envs.gym_env import make_env
+        from core.envs.task_calibration import calibrate_task, constant_count
+
+        if success not in ("info", "terminated"):
+            raise ValueError(f"bad value for --success: {success!r} (choose from info, terminated)")
+        kwargs = coerce(env_kwargs, dict, "--env-kwargs") if env_kwargs else {}
+        config = EnvConfig(id=env_id, kwargs=kwargs, success=success)  # type: ignore[arg-type]
+        probe = make_env(config)
+        probe.env.close()
+        with Progress(transient=True, console=_stderr_console()) as progress:
+            total = 1 + constant_count(probe.spec.action_dim)
+            task = progress.add_task(f"calibrating {env_id}", total=total)
+            tick = lambda name: progress.advance(task)  # noqa: E731
+            result = calibrate_task(config, episodes, seed, on_policy_done=tick)
+    if not constants:
+        result.pop("constants")
+    if as_json:
+        typer.echo(json.dumps(result))
+        return
+    typer.echo(f"{env_id}, {episodes} episodes per policy (success: {success})")
+    for name, row in (("random", result["random"]), ("best constant", result["best_constant"])):
+        action = f"  action {row['action']}" if "action" in row else ""
+        rates = f"success {row['success']:6.1%}  mean return {row['mean_return']:9.2f}"
+        typer.echo(f"  {name:<14} {rates}{action}")
+
+
+@app.command("list")
+def list_envs(
+    contains: str = typer.Argument(None, help="Show only ids containing this text (case-insensitive)."),
+) -> None:
+    """The gymnasium ids `dualsys train --env` accepts here (dm_control ids need the dmc extra)."""
+    from core.envs.gym_env import registered_ids
+
+    ids = [env_id for env_id in registered_ids() if not contains or contains.lower() in env_id.lower()]
+    for env_id in ids:
+        typer.echo(env_id)
 
 
 def _stderr_console():

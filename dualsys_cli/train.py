@@ -1,8 +1,9 @@
-"""`dualsys train`: train a method on NicoGrasp into a run directory (parse, call runs.trainer.train, print).
+"""`dualsys train`: train a method on NicoGrasp or any gymnasium task into a run directory (parse, call
+runs.trainer.train, print).
 
 Config precedence: ``--profile`` → ``--config FILE`` → ``--set key=value`` (repeatable) → the explicit options
-(``--algo``, ``--ac``, ``--reward``, ``--seed``, ``--episodes``, ``--steps``, ``--minutes``). ``--resume DIR``
-starts from DIR's saved config.yaml instead of the profile and continues the run in DIR.
+(``--algo``, ``--ac``, ``--env``, ``--reward``, ``--seed``, ``--episodes``, ``--steps``, ``--minutes``).
+``--resume DIR`` starts from DIR's saved config.yaml instead of the profile and continues the run in DIR.
 """
 
 from __future__ import annotations
@@ -38,6 +39,13 @@ def default_run_dir(algo: str, reward: str, root: Path = DEFAULT_RUNS_DIR) -> Pa
     return candidate
 
 
+def _run_name(config: Any) -> str:
+    """NicoGrasp's reward mode, or another task's id made folder-safe (``dm_control/x``: ``dm_control-x``)."""
+    if config.env.reward_label != "task":
+        return config.env.reward_mode
+    return config.env.id.replace("/", "-").replace(":", "-")
+
+
 def build_config(
     *,
     profile: str,
@@ -47,6 +55,7 @@ def build_config(
     algo: str | None,
     ac: str | None,
     reward: str | None,
+    env: str | None = None,
     seed: int | None,
     episodes: int | None,
     steps: int | None,
@@ -73,6 +82,8 @@ def build_config(
         config.run.algo = algo
     if ac is not None:
         set_value(config, "agent.ac", ac)
+    if env is not None:
+        set_value(config, "env.id", env)
     if reward is not None:
         set_value(config, "env.reward_mode", reward)
     if seed is not None:
@@ -112,7 +123,7 @@ class _ProgressView:
             console=console,
             transient=False,
         )
-        self.task = self.progress.add_task(f"{run.algo} · {config.env.reward_mode}", total=total, stats="")
+        self.task = self.progress.add_task(f"{run.algo} · {_run_name(config)}", total=total, stats="")
 
     def __call__(self, record: dict[str, Any]) -> None:
         self.recent_success.append(float(record["charts/success"]))
@@ -153,7 +164,10 @@ def _summary_table(summary: dict[str, Any]) -> Table:
 
 def train_command(
     algo: str = typer.Option(None, "--algo", help="Method: ddpg, cacla, or any registered method."),
-    reward: str = typer.Option(None, "--reward", help="Reward: dense | sparse (default: the profile's)."),
+    env: str = typer.Option(
+        None, "--env", help="Gymnasium id (default dualsys/NicoGrasp-v0; `dualsys env list` shows the ids)."
+    ),
+    reward: str = typer.Option(None, "--reward", help="NicoGrasp's reward: dense | sparse."),
     seed: int = typer.Option(None, "--seed", help="Run seed (default: the profile's, 0)."),
     episodes: int = typer.Option(None, "--episodes", min=1, help="Training episodes."),
     steps: int = typer.Option(None, "--steps", min=1, help="Training environment steps."),
@@ -168,7 +182,8 @@ def train_command(
     ac: str = typer.Option(None, "--ac", help="Actor update for dual-system methods: ddpg | cacla."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON summary line."),
 ) -> None:
-    """Train a vision-based grasping policy; Ctrl-C leaves a resumable checkpoint."""
+    """Train a policy (the vision-based grasp by default, or any gymnasium task with --env); Ctrl-C leaves a
+    resumable checkpoint."""
     from core.runs.trainer import train
 
     with user_errors():
@@ -180,26 +195,28 @@ def train_command(
             algo=algo,
             ac=ac,
             reward=reward,
+            env=env,
             seed=seed,
             episodes=episodes,
             steps=steps,
             minutes=minutes,
         )
         from core.config import check_config
+        from core.envs.gym_env import make_env
         from core.runs.methods import resolve_algo
 
         config = resolve_algo(config)
         check_config(config)
-        run_dir = (
-            resume
-            if resume is not None
-            else (out or default_run_dir(config.run.algo, config.env.reward_mode))
-        )
+        console = Console(stderr=True)
+        adapted = make_env(config.env)  # an unknown id or unsupported space fails here, before any folder
+        adapted.env.close()
+        for note in adapted.notes:
+            console.print(f"[dim]env: {note}[/dim]")
+        run_dir = resume or out or default_run_dir(config.run.algo, _run_name(config))
         from core.runs.run_dir import RunDirectory, RunDirectoryError
 
         if resume is None and RunDirectory(run_dir).holds_run():
             raise RunDirectoryError(f"run directory {run_dir} already holds a run (resume it instead)")
-        console = Console(stderr=True)
         view = _ProgressView(console, config)
         with view.progress:
             summary = train(

@@ -40,6 +40,7 @@ import numpy as np
 import torch
 
 from core.config import Config
+from core.envs.spec import EnvSpec
 from core.modelfree.networks import Encoder, to_float_chw
 from core.runs.policy import load_policy, resolve_checkpoint
 from core.runs.run_dir import CHECKPOINT_FORMAT, load_checkpoint
@@ -227,11 +228,14 @@ def _write_run_dir(out_dir: Path, source: dict[str, Any], config: Config, encode
     checkpoint = {
         "format": CHECKPOINT_FORMAT,
         "config": config.to_dict(),
-        "obs_shape": list(source.get("obs_shape", (32, 64, 3))),
-        "action_dim": int(actor.action_scale.shape[0]),
+        **EnvSpec.from_dict({**source, "action_dim": actor.action_dim}).to_dict(),
         "counters": source.get("counters", {}),
         "eval": source.get("eval", {}),
-        "policy": {"encoder": encoder.state_dict(), "actor": actor.state_dict()},
+        "policy": {
+            "encoder": encoder.state_dict(),
+            "actor": actor.state_dict(),
+            **{key: value for key, value in source.get("policy", {}).items() if key == "bounds"},
+        },
         "alignment": json.loads(json.dumps(summary, default=str)),
     }
     out_dir.parent.mkdir(parents=True, exist_ok=True)

@@ -4,7 +4,10 @@ The graph takes the camera image exactly as the robot delivers it: uint8 ``[N, 3
 a dynamic batch axis ``N``; the conversion to float CHW in [0, 1] is inside the graph (``modelfree.networks
 .to_float_chw``), and so is the action scale (a registered buffer of ``Actor``). The output is ``[N,
 action_dim]``: ``[N, 1]`` (shoulder change) for the default ``hand="auto"`` policies, ``[N, 2]`` (shoulder
-change, close) for ``hand="learned"`` policies.
+change, close) for ``hand="learned"`` policies. A policy of another gymnasium task takes that task's
+observations (uint8 images of its size, or float32 vectors, scaled inside the graph) and answers in the
+env's own action units (``ActionBounds`` is the graph's last node); its parity check runs on random
+inputs within the observation space's bounds, and the metadata records the env id and action bounds.
 
 The model's ``metadata_props`` record the opset, the input/output names and shapes, the action dimension, the
 hand mode, the source checkpoint and the parity figures, so a deployment reads everything it needs from the
@@ -23,6 +26,7 @@ exactly; its deprecation warning is silenced here.
 from __future__ import annotations
 
 import io
+import json
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,7 +35,9 @@ from typing import Any
 import numpy as np
 import torch
 
+from core.config import NICO_GRASP_ID
 from core.deploy.env_images import render_env_images
+from core.envs.spec import EnvSpec
 from core.modelfree.networks import PolicyNetwork
 from core.runs.policy import Policy, load_policy
 from core.runs.run_dir import atomic_write_bytes
@@ -81,10 +87,13 @@ class ExportReport:
         }
 
 
-def onnx_bytes(network: PolicyNetwork, obs_shape: tuple[int, int, int], opset: int = DEFAULT_OPSET) -> bytes:
-    """The policy network as an ONNX model (bytes): uint8 ``[N, *obs_shape]`` → ``[N, action_dim]``."""
+def onnx_bytes(
+    network: PolicyNetwork, obs_shape: tuple[int, ...], opset: int = DEFAULT_OPSET, obs_dtype: str = "uint8"
+) -> bytes:
+    """The policy network as an ONNX model (bytes): ``[N, *obs_shape]`` (uint8 images, float32 vectors) →
+    ``[N, action_dim]`` in the env's units."""
     network = network.eval()
-    example = torch.zeros((2, *obs_shape), dtype=torch.uint8)
+    example = torch.zeros((2, *obs_shape), dtype=torch.uint8 if obs_dtype == "uint8" else torch.float32)
     buffer = io.BytesIO()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -126,7 +135,7 @@ def check_onnx_parity(
 
     source = str(model) if isinstance(model, Path) else model
     session = onnxruntime.InferenceSession(source, providers=["CPUExecutionProvider"])
-    images = np.ascontiguousarray(images, dtype=np.uint8)
+    images = np.ascontiguousarray(images)
     with torch.no_grad():
         expected = network.eval()(torch.from_numpy(images)).numpy()
     worst = 0.0
@@ -152,7 +161,7 @@ def check_onnx_parity(
 
 
 def parity_images(
-    obs_shape: tuple[int, int, int], *, random_images: int, env_images: int, seed: int
+    obs_shape: tuple[int, ...], *, random_images: int, env_images: int, seed: int
 ) -> np.ndarray:
     """``random_images`` uniform uint8 images followed by ``env_images`` NicoGrasp images (both cameras)."""
     rng = np.random.default_rng(seed)
@@ -160,6 +169,16 @@ def parity_images(
     if env_images > 0:
         parts.append(render_env_images(env_images, seed=seed))
     return np.concatenate(parts)
+
+
+def parity_vectors(spec: EnvSpec, *, count: int, seed: int) -> np.ndarray:
+    """``count`` float32 observations: uniform within the space's bounds where finite, else N(0, 3²)."""
+    rng = np.random.default_rng(seed)
+    shape = (count, *spec.obs_shape)
+    if spec.obs_low is not None and spec.obs_high is not None:
+        low, high = np.asarray(spec.obs_low), np.asarray(spec.obs_high)
+        return rng.uniform(low, high, size=shape).astype(np.float32)
+    return rng.normal(0.0, 3.0, size=shape).astype(np.float32)
 
 
 def export_policy(
@@ -180,26 +199,47 @@ def export_policy(
         raise OnnxExportError("the parity check needs at least one image")
     if opset < 13:
         raise OnnxExportError(f"opset {opset} is too old; use 13 or newer")
+    spec = policy.spec
     obs_shape = policy.obs_shape
-    if tuple(obs_shape) != (32, 64, 3) and env_images > 0:
+    nico = policy.config.env.id == NICO_GRASP_ID
+    if not nico:
+        env_images = 0  # NicoGrasp's renderings mean nothing to another task's policy
+        if random_images < 1:
+            raise OnnxExportError("the parity check needs at least one input (random_images >= 1)")
+    elif tuple(obs_shape) != (32, 64, 3) and env_images > 0:
         raise OnnxExportError(f"environment images are 32x64x3 but the policy takes {list(obs_shape)}")
+    low, high = spec.bounds()
     metadata = {
         "producer": "dualsys",
         "opset": str(opset),
+        "env_id": policy.config.env.id,
+        "env_kwargs": json.dumps(policy.config.env.kwargs),
+        "env_success": policy.config.env.success,
         "input_name": INPUT_NAME,
         "input_shape": f"[N, {', '.join(map(str, obs_shape))}]",
-        "input_dtype": "uint8",
-        "input_layout": "NHWC RGB, 0-255; scaled to [0, 1] inside the graph",
+        "input_dtype": "uint8" if spec.obs_kind == "image" else "float32",
+        "input_layout": (
+            "NHWC, 0-255; scaled to [0, 1] inside the graph"
+            if spec.obs_kind == "image"
+            else "the env's observation vector; scaled by its bounds inside the graph"
+        ),
         "output_name": OUTPUT_NAME,
         "output_shape": f"[N, {policy.action_dim}]",
         "action_dim": str(policy.action_dim),
-        "action_meaning": "shoulder change x 20 deg" + (", close if > 0" if policy.action_dim == 2 else ""),
-        "hand": policy.config.env.hand,
-        "level": policy.config.env.level,
+        "action_low": json.dumps([float(v) for v in low]),
+        "action_high": json.dumps([float(v) for v in high]),
         "source_checkpoint": str(policy.source),
     }
-    model = onnx_bytes(policy.network, obs_shape, opset)
-    images = parity_images(obs_shape, random_images=random_images, env_images=env_images, seed=seed)
+    if nico:
+        close = ", close if > 0" if policy.action_dim == 2 else ""
+        metadata["action_meaning"] = f"shoulder change x 20 deg{close}"
+        metadata["hand"] = str(policy.config.env.hand)
+        metadata["level"] = policy.config.env.level
+    model = onnx_bytes(policy.network, obs_shape, opset, "uint8" if spec.obs_kind == "image" else "float32")
+    if spec.obs_kind == "image":
+        images = parity_images(obs_shape, random_images=random_images, env_images=env_images, seed=seed)
+    else:
+        images = parity_vectors(spec, count=random_images, seed=seed)
     max_diff = check_onnx_parity(model, policy.network, images, tolerance=tolerance)
     metadata.update(
         {

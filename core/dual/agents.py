@@ -47,7 +47,8 @@ from core.dual.meta_controller import MetaController
 from core.dual.planning import PlanResult, Rollout
 from core.dual.value_expansion import ValueExpansionActorCritic
 from core.dual.world_models import LocalWorldModels
-from core.modelfree.agent import EnvSpec, ModelFreeAgent, Transition
+from core.envs.spec import EnvSpec
+from core.modelfree.agent import ModelFreeAgent, Transition
 from core.modelfree.replay import LatentReplay, PixelReplay
 
 Imagination = Literal["none", "adaptive", "la"]
@@ -102,7 +103,7 @@ class DualSystemAgent(ModelFreeAgent):
         self.latent_replay: LatentReplay | None = None
         if imagination != "none":
             # Alg. 3 line 5: B_pixel (60k in the paper) beside B_latent (200k).
-            self.replay = PixelReplay(dual.pixel_buffer_size, spec.obs_shape, spec.action_dim)
+            self.replay = PixelReplay(dual.pixel_buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)
             self.latent_replay = LatentReplay(dual.latent_buffer_size, latent_dim, spec.action_dim)
         self._phi: torch.Tensor | None = None
         self._node = 0
@@ -145,8 +146,7 @@ class DualSystemAgent(ModelFreeAgent):
             rollout = la_imagination_rollout(phi, node, self.world, self._actor, dual.d_max,
                                              dual.imagination_prob_scale, self.rng)
             self._store_imagined(rollout)
-        spec = self.spec
-        noisy = self.noise.perturb(action, self.steps, self.rng, spec.action_low, spec.action_high)  # line 20
+        noisy = self.noise.perturb(action, self.steps, self.rng)  # line 20
         return noisy.astype(np.float32), {}
 
     def _count_model_based(self, rollout: Rollout, plan: PlanResult | None) -> None:
@@ -286,8 +286,7 @@ class ValueExpansionAgent(ModelFreeAgent):
         self.world = LocalWorldModels(config.dual, config.net.latent_dim, spec.action_dim, regions=False,
                                       generator=torch.Generator().manual_seed(model_seed))
         self.learner = ValueExpansionActorCritic(
-            config.net, config.agent, spec.action_dim, model=self.world.bank,
-            horizon=config.dual.fixed_horizon, action_scale=spec.action_high, obs_shape=spec.obs_shape,
+            config.net, config.agent, spec, model=self.world.bank, horizon=config.dual.fixed_horizon
         ).to(self.device)
         self._errors: list[float] = []
 

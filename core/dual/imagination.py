@@ -32,7 +32,6 @@ from torch.func import functional_call
 from core.dual.planning import ActorFn, Rollout, model_rollout
 from core.dual.world_models import LocalWorldModels
 from core.modelfree.actor_critic import ActorCritic
-from core.modelfree.networks import to_float_chw
 from core.modelfree.replay import LatentBatch, PixelBatch
 
 
@@ -41,10 +40,10 @@ def imagination_update(
 ) -> dict[str, float]:
     """Algorithm 3 lines 34-37 on one pixel and one latent minibatch (``latent`` None: pixel only)."""
     cfg = learner.agent_config
-    obs = to_float_chw(pixel.obs)
+    obs = learner.encoder.prepare(pixel.obs)
     with torch.no_grad():
-        y_pixel = learner.td_target(pixel.reward, learner.target_encoder(to_float_chw(pixel.next_obs)),
-                                    pixel.terminated)
+        next_phi = learner.target_encoder(learner.encoder.prepare(pixel.next_obs))
+        y_pixel = learner.td_target(pixel.reward, next_phi, pixel.terminated)
         if latent is not None:
             y_latent = learner.td_target(latent.reward, latent.next_latent, latent.done)
             y_all = torch.cat([y_pixel, y_latent])

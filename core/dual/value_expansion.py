@@ -20,8 +20,8 @@ import torch
 
 from core.config import AgentConfig, NetConfig
 from core.dual.model_bank import ModelBank
+from core.envs.spec import EnvSpec
 from core.modelfree.actor_critic import ActorCritic
-from core.modelfree.networks import OBS_SHAPE
 
 
 class ValueExpansionActorCritic(ActorCritic):
@@ -31,13 +31,11 @@ class ValueExpansionActorCritic(ActorCritic):
         self,
         net: NetConfig,
         agent: AgentConfig,
-        action_dim: int,
+        spec: EnvSpec,
         model: ModelBank,
         horizon: int,
-        action_scale: float | torch.Tensor = 1.0,
-        obs_shape: tuple[int, int, int] = OBS_SHAPE,
     ) -> None:
-        super().__init__(net, agent, action_dim, action_scale=action_scale, obs_shape=obs_shape)
+        super().__init__(net, agent, spec)
         if horizon < 0:
             raise ValueError(f"value-expansion horizon must be >= 0, got {horizon}")
         self.model = model

@@ -9,6 +9,7 @@ when asked. Every method of ``core.runs.methods`` runs through :data:`TRAINER_RU
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -139,7 +140,8 @@ def cell_overrides(
     extra: Mapping[str, Any] | None = None,
 ) -> list[str]:
     """The ``key=value`` overrides of one cell: the file's and the method's, then what the experiment sets
-    per cell (algo, seed, the env-step budget, evaluation, level, reward; single-threaded), then `extra`."""
+    per cell (algo, seed, the env-step budget, evaluation; NicoGrasp's level and reward, or another env's id
+    and kwargs; single-threaded), then `extra`."""
     cell_keys: dict[str, Any] = {
         "run.algo": algo,
         "run.seed": seed,
@@ -149,8 +151,11 @@ def cell_overrides(
         "run.eval_every": spec.eval_every,
         "run.eval_episodes": spec.eval_episodes,
         "run.num_threads": 1,
-        "env.reward_mode": reward,
-        "env.level": spec.level,
+        **(
+            {"env.reward_mode": reward, "env.level": spec.level}
+            if spec.nico_grasp
+            else {"env.id": spec.env, "env.kwargs": json.dumps(dict(spec.env_kwargs))}
+        ),
         **(extra or {}),
     }
     merged = {**spec.overrides, **method.overrides}

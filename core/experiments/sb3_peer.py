@@ -381,7 +381,7 @@ class _SB3Run(RunBookkeeping):
 
         checkpoint = self._begin()
         cfg = self.config
-        env = make_env(cfg)
+        env = make_env(cfg).env
         recorder = _make_reset_recorder(env)
         venv = DummyVecEnv([lambda: recorder])
         self.eval_env: Any = None
@@ -401,7 +401,7 @@ class _SB3Run(RunBookkeeping):
                     )
                 final_eval: dict[str, float] = {}
                 if self._final_evaluation_due():
-                    self.eval_env = self.eval_env or make_env(cfg, evaluation=True)
+                    self.eval_env = self.eval_env or make_env(cfg, evaluation=True).env
                     final_eval = self._evaluate(model, self.eval_env)
             # at an episode boundary the env was already reset for the next episode: resume replays it
             env_rng = recorder.before_reset if callback.at_boundary else _env_rng_state(env)
@@ -482,7 +482,7 @@ class _SB3Run(RunBookkeeping):
                 record.update(mean_dicts(self.losses))
                 self.losses = []
                 if run._evaluation_due():
-                    run.eval_env = run.eval_env or make_env(run.config, evaluation=True)
+                    run.eval_env = run.eval_env or make_env(run.config, evaluation=True).env
                     record.update(run._evaluate(model, run.eval_env))
                 run._log_episode(record)
                 if run._checkpoint_due():

@@ -5,8 +5,10 @@ An experiment file is YAML::
     name: table1                    # folder name of the experiment: [A-Za-z0-9._-]
     description: Table 1 of the paper (optional)
     profile: default                # core.config profile every cell starts from
-    level: released                 # task level (env.level): released | paper | hard
-    rewards: [dense, sparse]        # reward modes (env.reward_mode)
+    env: dualsys/NicoGrasp-v0       # optional: the gymnasium id of every cell (env.id; default NicoGrasp)
+    env_kwargs: {}                  # optional: gymnasium.make keyword arguments (env.kwargs; not NicoGrasp)
+    level: released                 # NicoGrasp's task level (env.level): released | paper | hard
+    rewards: [dense, sparse]        # NicoGrasp's reward modes (env.reward_mode); another env: [task]
     seeds: 5                        # N (seeds 0..N-1) or an explicit list [0, 1, 7]
     steps: 150000                   # env-step budget of every cell (run.steps); never wall-clock
     eval_every: 200                 # greedy evaluation every N training episodes (run.eval_every)
@@ -38,7 +40,7 @@ from typing import Any
 
 import yaml
 
-from core.config import ConfigError
+from core.config import NICO_GRASP_ID, ConfigError
 
 LEVELS: tuple[str, ...] = ("released", "paper", "hard")
 """Task levels an experiment may name (``env.level``)."""
@@ -46,11 +48,15 @@ LEVELS: tuple[str, ...] = ("released", "paper", "hard")
 REWARDS: tuple[str, ...] = ("dense", "sparse")
 """Reward modes of Section 4.1.2 (``env.reward_mode``)."""
 
+TASK_REWARD = "task"
+"""The one reward "mode" of an env other than NicoGrasp: its own reward (a cell folder's reward part)."""
+
 ACTOR_RULES: tuple[str, ...] = ("ddpg", "cacla")
 """Actor updates a method may name with ``ac`` (``agent.ac``)."""
 
-DEFAULT_SMOOTHING: dict[str, int] = {"dense": 250, "sparse": 375}
-"""Sliding windows (episodes) of Fig. 8's learning curves."""
+DEFAULT_SMOOTHING: dict[str, int] = {"dense": 250, "sparse": 375, "task": 10}
+"""Sliding windows (episodes) of the learning curves: Fig. 8's for NicoGrasp; 10 for another task's own
+reward (MountainCarContinuous-v0's episodes are up to 999 steps: 50 in a 50k-step run)."""
 
 RESERVED_KEYS: dict[str, str] = {
     "run.algo": "the method's 'algo'",
@@ -63,6 +69,8 @@ RESERVED_KEYS: dict[str, str] = {
     "run.eval_episodes": "'eval_episodes'",
     "env.reward_mode": "'rewards'",
     "env.level": "'level'",
+    "env.id": "'env'",
+    "env.kwargs": "'env_kwargs'",
     "run.num_threads": "the runner (every cell is single-threaded)",
 }
 """Config keys the experiment sets for each cell, and the file key that sets them."""
@@ -71,6 +79,8 @@ TOP_KEYS: tuple[str, ...] = (
     "name",
     "description",
     "profile",
+    "env",
+    "env_kwargs",
     "level",
     "rewards",
     "seeds",
@@ -120,12 +130,19 @@ class ExperimentSpec:
     steps: int
     level: str = "released"
     profile: str = "default"
+    env: str = NICO_GRASP_ID
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
     eval_every: int = 200
     eval_episodes: int = 25
     baseline: str | None = None
     smoothing: Mapping[str, int] = field(default_factory=lambda: dict(DEFAULT_SMOOTHING))
     overrides: Mapping[str, Any] = field(default_factory=dict)
     description: str = ""
+
+    @property
+    def nico_grasp(self) -> bool:
+        """Whether the cells run NicoGrasp (levels and dense/sparse rewards apply)."""
+        return self.env == NICO_GRASP_ID
 
     def method(self, label: str) -> MethodSpec:
         for method in self.methods:
@@ -138,9 +155,13 @@ class ExperimentSpec:
         out: dict[str, Any] = {"name": self.name}
         if self.description:
             out["description"] = self.description
+        out["profile"] = self.profile
+        if not self.nico_grasp:
+            out["env"] = self.env
+            if self.env_kwargs:
+                out["env_kwargs"] = dict(self.env_kwargs)
         out.update(
             {
-                "profile": self.profile,
                 "level": self.level,
                 "rewards": list(self.rewards),
                 "seeds": list(self.seeds),
@@ -196,7 +217,10 @@ def _parse(data: Mapping[str, Any]) -> ExperimentSpec:
     unknown = [str(key) for key in data if key not in TOP_KEYS]
     if unknown:
         raise ExperimentError(f"unknown key {unknown[0]!r} (experiment keys: {', '.join(TOP_KEYS)})")
-    for key in ("name", "methods", "rewards", "seeds", "steps"):
+    required = ["name", "methods", "seeds", "steps"]
+    if data.get("env", NICO_GRASP_ID) == NICO_GRASP_ID:
+        required.append("rewards")
+    for key in required:
         if data.get(key) is None:
             what = {
                 "steps": "the env-step budget of every cell",
@@ -217,7 +241,18 @@ def _parse(data: Mapping[str, Any]) -> ExperimentSpec:
 
     if profile not in PROFILES:
         raise ExperimentError(f"bad value for profile: {profile!r} (choose from {', '.join(PROFILES)})")
-    rewards = _rewards(data["rewards"])
+    env = _string(data.get("env", NICO_GRASP_ID), "env")
+    env_kwargs = data.get("env_kwargs") or {}
+    if not isinstance(env_kwargs, Mapping):
+        raise ExperimentError("bad value for env_kwargs: expected a mapping of gymnasium.make arguments")
+    if env == NICO_GRASP_ID:
+        if env_kwargs:
+            raise ExperimentError("bad value for env_kwargs: NicoGrasp takes level, rewards and overrides")
+        rewards = _rewards(data["rewards"])
+    else:
+        if "level" in data:
+            raise ExperimentError(f"unknown key 'level' for env {env!r} (task levels are NicoGrasp's)")
+        rewards = _task_rewards(data.get("rewards", [TASK_REWARD]), env)
     seeds = _seeds(data["seeds"])
     steps = _positive_int(data["steps"], "steps")
     eval_every = _int(data.get("eval_every", 200), "eval_every", minimum=0)
@@ -229,8 +264,10 @@ def _parse(data: Mapping[str, Any]) -> ExperimentSpec:
     if not isinstance(raw_smoothing, Mapping):
         raise ExperimentError("bad value for smoothing: expected a mapping {dense: N, sparse: N}")
     for reward, window in raw_smoothing.items():
-        if reward not in REWARDS:
-            raise ExperimentError(f"unknown key 'smoothing.{reward}' (reward modes: {', '.join(REWARDS)})")
+        if reward not in (*REWARDS, TASK_REWARD):
+            raise ExperimentError(
+                f"unknown key 'smoothing.{reward}' (reward modes: {', '.join((*REWARDS, TASK_REWARD))})"
+            )
         smoothing[str(reward)] = _positive_int(window, f"smoothing.{reward}")
     baseline = data.get("baseline")
     if baseline is not None:
@@ -246,6 +283,8 @@ def _parse(data: Mapping[str, Any]) -> ExperimentSpec:
         steps=steps,
         level=level,
         profile=profile,
+        env=env,
+        env_kwargs=dict(env_kwargs),
         eval_every=eval_every,
         eval_episodes=eval_episodes,
         baseline=baseline,
@@ -289,6 +328,15 @@ def _rewards(value: Any) -> tuple[str, ...]:
             raise ExperimentError(f"bad value for rewards: {item!r} is listed twice")
         rewards.append(item)
     return tuple(rewards)
+
+
+def _task_rewards(value: Any, env: str) -> tuple[str, ...]:
+    items = [value] if isinstance(value, str) else value
+    if items != [TASK_REWARD]:
+        raise ExperimentError(
+            f"bad value for rewards: {value!r} (env {env!r} has its own reward: leave rewards out or [task])"
+        )
+    return (TASK_REWARD,)
 
 
 def _seeds(value: Any) -> tuple[int, ...]:

@@ -6,8 +6,9 @@ One minibatch update (Algorithm 2, lines 26-28) is :meth:`ActorCritic.update_pix
 1. ``y = r + γ (1 − terminated) Q′(f′(s′), μ′(f′(s′)))`` with the target encoder, critic and actor (Eq. 1).
    Truncation at the step limit is not termination: it bootstraps.
 2. ``critic_passes`` Adam steps on ``λ_rec · L_rec + λ_Q · L_Q`` over the same minibatch (Eq. 4), updating
-   encoder ω, decoder ω̃ and critic θ^Q together. L_rec is the mean squared pixel error (Keras' MSE in the
-   released code; the paper writes the squared norm, which only rescales λ_rec), L_Q the mean of Eq. 1.
+   encoder ω, decoder ω̃ and critic θ^Q together. L_rec is the mean squared pixel (or scaled vector) error
+   (Keras' MSE in the released code; the paper writes the squared norm, which only rescales λ_rec), L_Q the
+   mean of Eq. 1.
 3. ``actor_passes`` steps of the actor strategy on φ = f(s) from the last critic pass (detached: the actor
    never trains the encoder; reusing that forward pass saves one encoder evaluation per update).
 4. ``θ′ ← τ θ + (1 − τ) θ′`` for encoder, critic and actor, one fused ``torch._foreach_lerp_``.
@@ -26,7 +27,8 @@ import torch
 from torch import nn
 
 from core.config import AgentConfig, NetConfig
-from core.modelfree.networks import OBS_SHAPE, Actor, Critic, Decoder, Encoder, PolicyNetwork, to_float_chw
+from core.envs.spec import EnvSpec
+from core.modelfree.networks import ActionBounds, Actor, Critic, PolicyNetwork, make_decoder, make_encoder
 from core.modelfree.replay import LatentBatch, PixelBatch
 
 
@@ -134,19 +136,18 @@ class ActorCritic(nn.Module):
         self,
         net: NetConfig,
         agent: AgentConfig,
-        action_dim: int,
-        action_scale: float | torch.Tensor = 1.0,
-        obs_shape: tuple[int, int, int] = OBS_SHAPE,
+        spec: EnvSpec,
     ) -> None:
         super().__init__()
         if agent.ac not in ACTOR_UPDATES:
             raise ValueError(f"unknown actor update {agent.ac!r} (choose from {', '.join(ACTOR_UPDATES)})")
         self.net_config, self.agent_config = net, agent
-        self.action_dim = action_dim
-        self.encoder = Encoder(net, obs_shape)
-        self.decoder = Decoder(net, self.encoder, out_channels=obs_shape[2])
+        self.action_dim = action_dim = spec.action_dim
+        self.encoder = make_encoder(net, spec)
+        self.decoder = make_decoder(net, self.encoder, spec)
         self.critic = Critic(net, action_dim)
-        self.actor = Actor(net, action_dim, action_scale)
+        self.actor = Actor(net, action_dim)
+        self.bounds = ActionBounds(*(torch.from_numpy(b) for b in spec.bounds()))
         self.target_encoder = copy.deepcopy(self.encoder).requires_grad_(False)
         self.target_critic = copy.deepcopy(self.critic).requires_grad_(False)
         self.target_actor = copy.deepcopy(self.actor).requires_grad_(False)
@@ -159,9 +160,9 @@ class ActorCritic(nn.Module):
 
     # -- acting ----------------------------------------------------------------------------------
     @torch.no_grad()
-    def encode(self, obs_uint8: torch.Tensor) -> torch.Tensor:
-        """φ = f_ω(s) for uint8 ``[N, H, W, C]`` observations."""
-        return self.encoder(to_float_chw(obs_uint8))
+    def encode(self, obs: torch.Tensor) -> torch.Tensor:
+        """φ = f_ω(s) for stored observations ``[N, *obs_shape]`` (uint8 images or vectors)."""
+        return self.encoder(self.encoder.prepare(obs))
 
     @torch.no_grad()
     def policy(self, latent: torch.Tensor) -> torch.Tensor:
@@ -169,8 +170,8 @@ class ActorCritic(nn.Module):
         return self.actor(latent)
 
     def policy_network(self) -> PolicyNetwork:
-        """Encoder + actor as one module (shares parameters with this learner)."""
-        return PolicyNetwork(self.encoder, self.actor)
+        """Encoder + actor + the env's action bounds as one module (shares parameters with this learner)."""
+        return PolicyNetwork(self.encoder, self.actor, self.bounds)
 
     # -- learning --------------------------------------------------------------------------------
     @torch.no_grad()
@@ -184,10 +185,10 @@ class ActorCritic(nn.Module):
     def update_pixels(self, batch: PixelBatch) -> dict[str, float]:
         """One minibatch update from B_pixel: Eq. 4 (critic_passes), the actor strategy, target update."""
         cfg = self.agent_config
-        obs = to_float_chw(batch.obs)
+        obs = self.encoder.prepare(batch.obs)
         with torch.no_grad():
             target = self.td_target(
-                batch.reward, self.target_encoder(to_float_chw(batch.next_obs)), batch.terminated
+                batch.reward, self.target_encoder(self.encoder.prepare(batch.next_obs)), batch.terminated
             )
         rec_loss = q_loss = torch.zeros(())
         latent = torch.zeros(())

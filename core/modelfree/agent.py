@@ -2,7 +2,7 @@
 
 Hooks (all methods share one loop, ``core.runs.trainer.train``; a method plugs in by implementing these):
 
-* ``begin_episode(obs)`` — a training episode starts with observation ``obs`` (uint8 [H, W, 3]).
+* ``begin_episode(obs)`` — a training episode starts with observation ``obs`` (uint8 image or vector).
 * ``act(obs, explore) -> (action, step_diagnostics)`` — ``explore=True`` during training (exploration
   noise, meta-control, anything with side effects); ``explore=False`` is the greedy deployment policy
   μ(f(s)) used by evaluation and must not change learning state. ``step_diagnostics`` is a dict of floats;
@@ -18,7 +18,7 @@ Hooks (all methods share one loop, ``core.runs.trainer.train``; a method plugs i
   state, counters, RNG state) in ``torch.load(weights_only=True)``-loadable form (tensors, numbers,
   strings, lists, dicts).
 * ``replay_state_dict()`` / ``load_replay_state_dict()`` — the buffers, saved to a separate file.
-* ``policy_state()`` — ``{"encoder": state_dict, "actor": state_dict}`` of the deployable policy
+* ``policy_state()`` — ``{"encoder", "actor", "bounds"}`` state dicts of the deployable policy
   (``core.runs.policy`` rebuilds it from the run's ``net`` config).
 """
 
@@ -32,18 +32,9 @@ import numpy as np
 import torch
 
 from core.config import Config
+from core.envs.spec import EnvSpec
 from core.modelfree.actor_critic import ActorCritic
 from core.modelfree.replay import PixelReplay
-
-
-@dataclass(frozen=True)
-class EnvSpec:
-    """What an agent needs to know about the environment."""
-
-    obs_shape: tuple[int, int, int]
-    action_dim: int
-    action_low: float = -1.0
-    action_high: float = 1.0
 
 
 @dataclass
@@ -85,7 +76,8 @@ class Agent(Protocol):
 
 
 class GaussianNoise:
-    """Exploration noise a ← clip(a + N(0, σ²), low, high) (Algorithm 2, line 20).
+    """Exploration noise a ← clip(a + N(0, σ²), −1, 1) (Algorithm 2, line 20), in the agents' normalised
+    action space, so σ is σ/2 of each dimension's range in the env's units (``core.envs.spec``).
 
     σ decays linearly from ``std`` to ``final_std`` over ``anneal_steps`` training steps (the ``paper``
     profile keeps σ = 1). Draws come from the agent's seeded generator.
@@ -98,11 +90,9 @@ class GaussianNoise:
         fraction = min(1.0, step / self.anneal_steps)
         return self.std + fraction * (self.final_std - self.std)
 
-    def perturb(
-        self, action: np.ndarray, step: int, rng: np.random.Generator, low: float, high: float
-    ) -> np.ndarray:
+    def perturb(self, action: np.ndarray, step: int, rng: np.random.Generator) -> np.ndarray:
         noisy = action + rng.normal(0.0, self.std_at(step), size=action.shape)
-        return np.clip(noisy, low, high).astype(np.float32)
+        return np.clip(noisy, -1.0, 1.0).astype(np.float32)
 
 
 def generator_state(rng: np.random.Generator) -> str:
@@ -126,10 +116,8 @@ class ModelFreeAgent:
         self.spec = spec
         self.rng = rng
         self.device = torch.device(config.run.device)
-        self.learner = ActorCritic(
-            config.net, config.agent, spec.action_dim, action_scale=spec.action_high, obs_shape=spec.obs_shape
-        ).to(self.device)
-        self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim)
+        self.learner = ActorCritic(config.net, config.agent, spec).to(self.device)
+        self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)
         agent_cfg = config.agent
         self.noise = GaussianNoise(
             agent_cfg.noise_std, agent_cfg.noise_final_std, agent_cfg.noise_anneal_steps
@@ -144,15 +132,14 @@ class ModelFreeAgent:
         self.replay.start_episode(obs)
 
     def greedy_action(self, obs: np.ndarray) -> np.ndarray:
-        """μ(f(s)) for one uint8 observation."""
+        """μ(f(s)) for one observation, in the normalised action space."""
         obs_tensor = torch.from_numpy(np.ascontiguousarray(obs)).unsqueeze(0).to(self.device)
         return self.learner.policy(self.learner.encode(obs_tensor))[0].cpu().numpy()
 
     def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
         action = self.greedy_action(obs)
         if explore:
-            spec = self.spec
-            action = self.noise.perturb(action, self.steps, self.rng, spec.action_low, spec.action_high)
+            action = self.noise.perturb(action, self.steps, self.rng)
         return action.astype(np.float32), {}
 
     # -- storing ---------------------------------------------------------------------------------
@@ -229,4 +216,9 @@ class ModelFreeAgent:
         self.replay.load_state_dict(state["pixel"])
 
     def policy_state(self) -> dict[str, dict[str, torch.Tensor]]:
-        return {"encoder": self.learner.encoder.state_dict(), "actor": self.learner.actor.state_dict()}
+        learner = self.learner
+        return {
+            "encoder": learner.encoder.state_dict(),
+            "actor": learner.actor.state_dict(),
+            "bounds": learner.bounds.state_dict(),
+        }

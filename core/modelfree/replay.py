@@ -1,4 +1,8 @@
-"""Replay buffers: uint8 pixel replay (B / B_pixel) and float32 latent replay (B_latent, Section 3).
+"""Replay buffers: observation replay (B / B_pixel) and float32 latent replay (B_latent, Section 3).
+
+PixelReplay stores observations in their own dtype: uint8 images take one byte per channel, float
+vectors keep their float32/float64 values exactly. A write whose dtype cannot be cast to the buffer's
+without loss (a float into a uint8 buffer, float64 into float32) is a TypeError, never a silent cast.
 
 PixelReplay stores every frame once. An episode of L steps writes L + 1 frames (the first observation,
 then each next observation) and L transition rows that point at their two frames by a global frame id:
@@ -45,13 +49,14 @@ class LatentBatch(NamedTuple):
 
 
 class PixelReplay:
-    """uint8 frame replay storing each frame once; see the module docstring for the layout."""
+    """Observation replay storing each frame once; see the module docstring for the layout."""
 
     def __init__(
         self,
         capacity: int,
         obs_shape: tuple[int, ...],
         action_dim: int,
+        obs_dtype: str | np.dtype = "uint8",
         frame_capacity: int | None = None,
     ) -> None:
         if capacity < 1:
@@ -60,7 +65,8 @@ class PixelReplay:
         self.frame_capacity = frame_capacity or capacity + capacity // 4 + 2
         self.obs_shape = tuple(obs_shape)
         self.action_dim = action_dim
-        self.frames = np.zeros((self.frame_capacity, *self.obs_shape), dtype=np.uint8)
+        self.obs_dtype = np.dtype(obs_dtype)
+        self.frames = np.zeros((self.frame_capacity, *self.obs_shape), dtype=self.obs_dtype)
         self.obs_id = np.zeros(capacity, dtype=np.int64)
         self.next_id = np.zeros(capacity, dtype=np.int64)
         self.action = np.zeros((capacity, action_dim), dtype=np.float32)
@@ -108,6 +114,11 @@ class PixelReplay:
         self._current_frame = next_frame
 
     def _write_frame(self, obs: np.ndarray) -> int:
+        dtype = getattr(obs, "dtype", None)
+        if dtype is not None and dtype != self.obs_dtype and not np.can_cast(dtype, self.obs_dtype, "safe"):
+            raise TypeError(
+                f"observation of dtype {dtype} cannot be stored in a {self.obs_dtype} replay without loss"
+            )
         frame_id = self.frames_written
         self.frames[frame_id % self.frame_capacity] = obs
         self.frames_written += 1

@@ -287,7 +287,8 @@ class RunBookkeeping:
             "run_dir": str(self.dir.root),
             "algo": self.config.run.algo,
             "ac": ac,
-            "reward": self.config.env.reward_mode,
+            "env": self.config.env.id,
+            "reward": self.config.env.reward_label,
             "seed": self.config.run.seed,
             "episodes": self.episode,
             "steps": self.global_step,
@@ -319,7 +320,7 @@ class RunBookkeeping:
             self.returns,
             self.evals,
             cfg.run.smoothing_window,
-            f"{cfg.run.algo} · {cfg.env.reward_mode} reward · seed {cfg.run.seed}",
+            f"{cfg.run.algo} · {cfg.env.id} · {cfg.env.reward_label} reward · seed {cfg.run.seed}",
             diagnostics=diagnostics,
         )
         return summary

@@ -37,6 +37,7 @@ counters, episode records, evaluation/checkpoint/budget schedules, summary.json)
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -46,7 +47,9 @@ import numpy as np
 import torch
 
 from core.config import Config
-from core.modelfree.agent import Agent, EnvSpec, Transition, generator_state, restore_generator
+from core.envs import gym_env
+from core.envs.gym_env import AdaptedEnv, episode_success
+from core.modelfree.agent import Agent, Transition, generator_state, restore_generator
 from core.runs.bookkeeping import RECORD_KEYS as RECORD_KEYS
 from core.runs.bookkeeping import EpisodeCallback as EpisodeCallback
 from core.runs.bookkeeping import RunBookkeeping, mean_dicts
@@ -57,42 +60,15 @@ EVAL_SEED = 1_000_000
 """Evaluation episode k resets its env with seed EVAL_SEED + k (same positions for all runs)."""
 
 
-def env_kwargs(config: Config) -> dict[str, Any]:
-    """The ``NicoGraspEnv`` keyword arguments of ``config.env``."""
-    env = config.env
-    return {
-        "level": env.level,
-        "reward_mode": env.reward_mode,
-        "hand": env.hand,
-        "dense_shaping": env.dense_shaping,
-        "fixed_positions": env.fixed_positions,
-        "max_steps": env.max_steps,
-        "domain": env.domain,
-    }
+def make_env(config: Config, *, evaluation: bool = False) -> AdaptedEnv:
+    """The training env of ``config.env``, or its evaluation env (``core.envs.gym_env.make_env``)."""
+    return gym_env.make_env(config.env, evaluation=evaluation)
 
 
-def make_env(config: Config, *, evaluation: bool = False) -> Any:
-    """The training env, or the evaluation env (random graspable positions every reset)."""
-    from core.envs import NicoGraspEnv
-
-    kwargs = env_kwargs(config)
-    if evaluation:
-        kwargs["fixed_positions"] = None
-    return NicoGraspEnv(**kwargs)
-
-
-def env_spec(env: Any) -> EnvSpec:
-    space = env.action_space
-    return EnvSpec(
-        obs_shape=tuple(env.observation_space.shape),
-        action_dim=int(space.shape[0]),
-        action_low=float(space.low.min()),
-        action_high=float(space.high.max()),
-    )
-
-
-def evaluate(agent: Agent, env: Any, episodes: int, seed: int = EVAL_SEED) -> dict[str, float]:
-    """Greedy episodes (no noise): success rate, mean episodic return and mean length."""
+def evaluate(
+    agent: Agent, env: Any, episodes: int, seed: int = EVAL_SEED, success_rule: str = "info"
+) -> dict[str, float]:
+    """Greedy episodes (no noise): success rate (``env.success``'s rule), mean episodic return and length."""
     successes, returns, lengths = [], [], []
     for k in range(episodes):
         obs, _ = env.reset(seed=seed + k)
@@ -103,7 +79,7 @@ def evaluate(agent: Agent, env: Any, episodes: int, seed: int = EVAL_SEED) -> di
             total += reward
             length += 1
             if terminated or truncated:
-                success = bool(info.get("success", False))
+                success = episode_success(info, terminated, truncated, success_rule)
                 break
         successes.append(success)
         returns.append(total)
@@ -116,15 +92,29 @@ def evaluate(agent: Agent, env: Any, episodes: int, seed: int = EVAL_SEED) -> di
 
 
 def _env_rng_state(env: Any) -> dict[str, Any]:
+    """The env's random state: a NumPy ``Generator`` (gymnasium's ``np_random``) or, for dm_control tasks
+    through shimmy, the task's legacy ``RandomState``."""
     unwrapped = env.unwrapped
+    rng = unwrapped.np_random
+    if isinstance(rng, np.random.RandomState):
+        state = rng.get_state(legacy=False)
+        state["state"] = {key: np.asarray(value).tolist() for key, value in state["state"].items()}
+        random_state = json.dumps(state)
+        return {"random_state": random_state, "episode_index": 0}
     return {
-        "np_random": generator_state(unwrapped.np_random),
+        "np_random": generator_state(rng),
         "episode_index": int(getattr(unwrapped, "_episode_index", 0)),
     }
 
 
 def _restore_env_rng(env: Any, state: dict[str, Any]) -> None:
     unwrapped = env.unwrapped
+    if "random_state" in state:
+        saved = json.loads(state["random_state"])
+        saved["state"] = {key: np.asarray(value, dtype=np.uint64 if key == "key" else None)
+                          for key, value in saved["state"].items()}
+        unwrapped.np_random.set_state(saved)
+        return
     rng = np.random.default_rng()
     restore_generator(rng, state["np_random"])
     unwrapped.np_random = rng
@@ -144,10 +134,9 @@ class _Trainer(RunBookkeeping):
 
     # -- checkpoints ----------------------------------------------------------------------------
     def _head(self, wall_s: float) -> dict[str, Any]:
-        """The keys latest.pt and best.pt start with (the env's observation shape and action size)."""
-        return self._checkpoint_head(
-            wall_s, obs_shape=list(self.spec.obs_shape), action_dim=self.spec.action_dim
-        )
+        """The keys latest.pt and best.pt start with: the env's spec (observation kind, shape and dtype,
+        action size and bounds), so a policy can be rebuilt without its env."""
+        return self._checkpoint_head(wall_s, **self.spec.to_dict())
 
     def _save_latest(self, agent: Agent, env: Any, wall_s: float) -> None:
         atomic_torch_save(agent.replay_state_dict(), self.dir.replay_path)
@@ -171,13 +160,17 @@ class _Trainer(RunBookkeeping):
 
     # -- the loop --------------------------------------------------------------------------------
     def run(self) -> dict[str, Any]:
-        checkpoint = self._begin()
         cfg = self.config
-        agent_rng = np.random.default_rng(np.random.SeedSequence(cfg.run.seed).spawn(1)[0])
-        env = make_env(cfg)
-        eval_env = None
+        adapted = make_env(cfg)  # a bad env id or space fails before the run directory is touched
+        env, eval_env = adapted.env, None
         try:
-            self.spec = env_spec(env)
+            checkpoint = self._begin()
+        except BaseException:
+            env.close()
+            raise
+        agent_rng = np.random.default_rng(np.random.SeedSequence(cfg.run.seed).spawn(1)[0])
+        try:
+            self.spec = adapted.spec
             agent = make_agent(cfg, self.spec, agent_rng)
             first_reset_seed: int | None = cfg.run.seed
             if checkpoint is not None:
@@ -195,7 +188,7 @@ class _Trainer(RunBookkeeping):
                         self.stopped = True
                         break
                     if self._evaluation_due():
-                        eval_env = eval_env or make_env(cfg, evaluation=True)
+                        eval_env = eval_env or make_env(cfg, evaluation=True).env
                         record.update(self._evaluate(agent, eval_env, self.wall()))
                     self._log_episode(record)
                     if self._checkpoint_due():
@@ -203,7 +196,7 @@ class _Trainer(RunBookkeeping):
                         self.last_checkpoint = time.perf_counter()
                 final_eval = {}
                 if self._final_evaluation_due():
-                    eval_env = eval_env or make_env(cfg, evaluation=True)
+                    eval_env = eval_env or make_env(cfg, evaluation=True).env
                     final_eval = self._evaluate(agent, eval_env, self.wall())
             self._save_latest(agent, env, self.wall())
             return self._finish(
@@ -238,7 +231,8 @@ class _Trainer(RunBookkeeping):
                 losses.append(step_losses)
             obs = next_obs
             if terminated or truncated:
-                success, toppled = bool(info.get("success", False)), bool(info.get("toppled", False))
+                success = episode_success(info, terminated, truncated, self.config.env.success)
+                toppled = bool(info.get("toppled", False))
                 break
         episode_losses = agent.update_after_episode()
         if episode_losses:
@@ -250,7 +244,8 @@ class _Trainer(RunBookkeeping):
         return record
 
     def _evaluate(self, agent: Agent, eval_env: Any, wall_s: float) -> dict[str, float]:
-        result = evaluate(agent, eval_env, self.config.run.eval_episodes)
+        cfg = self.config
+        result = evaluate(agent, eval_env, cfg.run.eval_episodes, success_rule=cfg.env.success)
         if self._record_evaluation(result):
             self._save_best(agent, wall_s, result)
         return result

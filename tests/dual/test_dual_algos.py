@@ -15,8 +15,9 @@ from core.dual.imagination import imagination_probability, imagination_update, l
 from core.dual.meta_controller import MetaController
 from core.dual.value_expansion import ValueExpansionActorCritic
 from core.dual.world_models import LocalWorldModels
+from core.envs.spec import EnvSpec
 from core.modelfree.actor_critic import ActorCritic
-from core.modelfree.agent import EnvSpec, Transition
+from core.modelfree.agent import Transition
 from core.modelfree.networks import to_float_chw
 from core.modelfree.replay import LatentBatch, PixelBatch
 from core.runs.methods import make_agent
@@ -169,7 +170,7 @@ def test_la_imagination_probability_and_depth() -> None:
 def _learner(ac: str = "ddpg") -> ActorCritic:
     torch.manual_seed(3)
     config = load_config("default", ["net.conv_channels=4,4,4", f"agent.ac={ac}", "agent.critic_passes=1"])
-    return ActorCritic(config.net, config.agent, action_dim=1)
+    return ActorCritic(config.net, config.agent, SPEC)
 
 
 def _batches(n: int = 6) -> tuple[PixelBatch, LatentBatch]:
@@ -237,8 +238,8 @@ def test_mve_target_expands_h_model_steps() -> None:
     bank.params["bm"][0] = constant
     bank.params["br"][0] = 0.3
     torch.manual_seed(0)
-    mve = ValueExpansionActorCritic(config.net, config.agent, 1, model=bank, horizon=2)
-    plain = ValueExpansionActorCritic(config.net, config.agent, 1, model=bank, horizon=0)
+    mve = ValueExpansionActorCritic(config.net, config.agent, SPEC, model=bank, horizon=2)
+    plain = ValueExpansionActorCritic(config.net, config.agent, SPEC, model=bank, horizon=0)
     plain.load_state_dict(mve.state_dict())
     reward, next_latent = torch.tensor([0.5, -1.0]), torch.rand(2, 32)
     terminated = torch.tensor([0.0, 1.0])

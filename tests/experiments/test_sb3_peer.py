@@ -91,7 +91,7 @@ def test_sac_policy_sees_uint8_observations_through_the_extractor_once_scaled(tm
     from core.runs.trainer import make_env
 
     config = load_config("default", TINY)
-    env = make_env(config)
+    env = make_env(config).env
     model = SAC(
         "CnnPolicy",
         DummyVecEnv([lambda: env]),

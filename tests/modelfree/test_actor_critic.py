@@ -9,9 +9,12 @@ import pytest
 import torch
 
 from core.config import load_config
+from core.envs.spec import EnvSpec
 from core.modelfree.actor_critic import ActorCritic, CACLAActorUpdate, DDPGActorUpdate, soft_update
-from core.modelfree.networks import Actor, Encoder, PolicyNetwork, multiply_adds_per_image
+from core.modelfree.networks import ActionBounds, Actor, Encoder, PolicyNetwork, multiply_adds_per_image
 from core.modelfree.replay import PixelBatch
+
+NICO_SPEC = EnvSpec(obs_shape=(32, 64, 3), action_dim=1)
 
 TINY = ["net.conv_channels=4,4", "net.latent_dim=8", "net.critic_hidden=8", "net.actor_hidden=8"]
 
@@ -19,7 +22,7 @@ TINY = ["net.conv_channels=4,4", "net.latent_dim=8", "net.critic_hidden=8", "net
 def learner(ac: str = "ddpg", extra: tuple[str, ...] = ()) -> ActorCritic:
     torch.manual_seed(0)
     config = load_config("default", [*TINY, f"agent.ac={ac}", *extra])
-    return ActorCritic(config.net, config.agent, action_dim=1)
+    return ActorCritic(config.net, config.agent, NICO_SPEC)
 
 
 def batch(size: int = 16, seed: int = 0) -> PixelBatch:
@@ -152,13 +155,20 @@ def test_update_latents_trains_critic_head_not_encoder():
     assert not all(torch.equal(a, b) for a, b in zip(critic_before, ac.critic.parameters(), strict=True))
 
 
-def test_action_scale_is_a_buffer_and_policy_network_takes_uint8():
+def test_action_bounds_are_buffers_and_policy_network_takes_uint8():
     config = load_config("default", TINY)
-    actor = Actor(config.net, 2, action_scale=0.5)
-    assert "action_scale" in dict(actor.named_buffers())
-    network = PolicyNetwork(Encoder(config.net), actor)
+    bounds = ActionBounds([-0.5, 2.0], [0.5, 4.0])
+    assert {"low", "high"} <= set(dict(bounds.named_buffers()))
+    network = PolicyNetwork(Encoder(config.net), Actor(config.net, 2), bounds)
     actions = network(torch.randint(0, 256, (3, 32, 64, 3), dtype=torch.uint8))
-    assert actions.shape == (3, 2) and actions.abs().max() <= 0.5
+    assert actions.shape == (3, 2)
+    assert actions[:, 0].abs().max() <= 0.5 and bool(((actions[:, 1] >= 2.0) & (actions[:, 1] <= 4.0)).all())
+    # [-1, 1] maps onto [low, high] exactly at the ends and the middle; ±1 bounds are the identity
+    assert torch.allclose(bounds(torch.tensor([[-1.0, -1.0], [0.0, 0.0], [1.0, 1.0]])),
+                          torch.tensor([[-0.5, 2.0], [0.0, 3.0], [0.5, 4.0]]))
+    unit = ActionBounds([-1.0], [1.0])
+    x = torch.tensor([[0.123456789]])
+    assert unit.identity and unit(x) is x
 
 
 def test_strided_encoder_is_cheaper_than_the_paper_shape():

@@ -144,7 +144,7 @@ def test_cacla_sparse_runs(tmp_path):
 
 
 def test_policy_round_trip_gives_identical_actions(tmp_path):
-    from core.modelfree.agent import EnvSpec
+    from core.envs.spec import EnvSpec
     from core.runs.methods import make_agent
     from core.runs.run_dir import CHECKPOINT_FORMAT, atomic_torch_save
 

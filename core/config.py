@@ -178,6 +178,13 @@ class AgentConfig:
     """Std after annealing (equal to noise_std: no annealing)."""
     noise_anneal_steps: int = 30_000
     """Environment steps over which the std decays linearly to noise_final_std."""
+    rnd_scale: float = 0.5
+    """``--algo rnd`` only: weight of the normalised RND bonus against the extrinsic reward (Burda et al.
+    2018 weigh extrinsic 2 : intrinsic 1; here extrinsic 1 : intrinsic 0.5)."""
+    rnd_lr: float = 1e-4
+    """``--algo rnd`` only: Adam learning rate of the RND predictor (Burda et al. 2018)."""
+    rnd_dim: int = 64
+    """``--algo rnd`` only: output size of the random target and the predictor networks."""
 
 
 @dataclass
@@ -496,6 +503,7 @@ _POSITIVE_INTS = (
     "agent.ddpg_actor_passes",
     "agent.cacla_actor_passes",
     "agent.noise_anneal_steps",
+    "agent.rnd_dim",
     "dual.lp_sigma",
     "dual.lp_window",
     "dual.model_hidden",
@@ -514,6 +522,7 @@ _NON_NEGATIVE = (
     "agent.lambda_rec",
     "agent.lambda_q",
     "agent.noise_std",
+    "agent.rnd_scale",
     "agent.noise_final_std",
     "dual.plan_steps",
     "dual.fixed_horizon",
@@ -549,7 +558,7 @@ def check_config(config: Config) -> None:
         raise ConfigError(f"bad value for agent.gamma: {config.agent.gamma!r} (must be in [0, 1])")
     if not 0.0 <= config.agent.tau <= 1.0:
         raise ConfigError(f"bad value for agent.tau: {config.agent.tau!r} (must be in [0, 1])")
-    for key in ("agent.critic_lr", "agent.actor_lr", "dual.model_lr", "dual.e_max"):
+    for key in ("agent.critic_lr", "agent.actor_lr", "agent.rnd_lr", "dual.model_lr", "dual.e_max"):
         if value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
     if not config.net.conv_channels or min(config.net.conv_channels) < 1:

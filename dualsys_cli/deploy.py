@@ -88,7 +88,8 @@ def export_command(
     artifacts: Path = ARTIFACTS,
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
 ) -> None:
-    """Export encoder + actor to ONNX (uint8 [N,32,64,3] → [N, action_dim]), checked against PyTorch."""
+    """Export encoder + actor to ONNX (NicoGrasp: uint8 [N,32,64,3] → [N, action_dim]; another task: its
+    observations → actions in its units), checked against PyTorch."""
     from core.deploy import OnnxParityError, export_onnx
 
     with user_errors():
@@ -111,10 +112,11 @@ def export_command(
     if as_json:
         typer.echo(json.dumps(result))
         return
-    typer.echo(f"exported {out}  (opset {report.opset}, {report.input_name} uint8 [N, 32, 64, 3] → "
-               f"{report.output_name} [N, {report.action_dim}])")
+    meta = report.metadata
+    typer.echo(f"exported {out}  (opset {report.opset}, {report.input_name} {meta['input_dtype']} "
+               f"{meta['input_shape']} → {report.output_name} [N, {report.action_dim}])")
     typer.echo(f"parity: max |onnxruntime − PyTorch| = {report.max_abs_diff:.2g} on {report.random_images} "
-               f"random + {report.env_images} env images, batches {list(report.batch_sizes)}")
+               f"random + {report.env_images} env inputs, batches {list(report.batch_sizes)}")
     if registered:
         typer.echo(f"stored as an artifact of {registered}")
 
@@ -141,7 +143,8 @@ def eval_command(
     artifacts: Path = ARTIFACTS,
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
 ) -> None:
-    """The grasp-trial evaluator: success rate with a 95% Wilson interval."""
+    """The grasp-trial evaluator: success rate with a 95% Wilson interval. A policy of another gymnasium task
+    runs --trials greedy episodes of that task instead (success rate and mean return)."""
     from core.deploy import DEFAULT_TRIAL_SEED, OnnxParityError, evaluate_policy
     from sim2real import read_camera_shift
 
@@ -154,8 +157,14 @@ def eval_command(
         console = Console(stderr=True)
 
         def show(trial: Any) -> None:
-            if not as_json:
+            if as_json:
+                return
+            if hasattr(trial, "outcome"):
                 console.print(f"trial {trial.trial}/{trials}: {trial.outcome} after {trial.steps} step(s)")
+            else:
+                outcome = "success" if trial.success else "no success"
+                console.print(f"episode {trial.episode + 1}/{trials}: return {trial.episode_return:.2f}, "
+                              f"{outcome}, {trial.steps} steps")
 
         try:
             report = evaluate_policy(policy_path=path, trials=trials, max_steps=max_steps, domain=domain,
@@ -167,8 +176,14 @@ def eval_command(
     if as_json:
         typer.echo(json.dumps(report.to_dict()))
         return
-    Console().print(_trial_table(report))
     runtime = "onnxruntime" if onnx or path.suffix == ".onnx" else "PyTorch"
+    if hasattr(report, "mean_return"):
+        rate = f"{report.successes}/{report.trials} = {report.success_rate:.0%}"
+        typer.echo(f"{resolved.ref or resolved.path} ({runtime}): mean return {report.mean_return:.2f} over "
+                   f"{report.trials} episodes; {rate} success, 95% Wilson interval "
+                   f"[{report.ci_low:.2f}, {report.ci_high:.2f}]")
+        return
+    Console().print(_trial_table(report))
     typer.echo(f"{resolved.ref or resolved.path} on --domain {domain} ({runtime}): {report.successes}/"
                f"{report.trials} = {report.success_rate:.0%} success, 95% Wilson interval "
                f"[{report.ci_low:.2f}, {report.ci_high:.2f}]")

@@ -84,6 +84,7 @@ class ExportReport:
             "random_images": self.random_images,
             "env_images": self.env_images,
             "batch_sizes": list(self.batch_sizes),
+            "metadata": dict(self.metadata),
         }
 
 

@@ -1,6 +1,8 @@
 """The method registry: ``ALGOS[name](config, spec, rng) -> Agent``, the names ``--algo`` accepts.
 
-``ddpg`` and ``cacla`` are the model-free baselines of Section 2.1 (the name sets ``agent.ac``).
+``ddpg`` and ``cacla`` are the model-free baselines of Section 2.1 (the name sets ``agent.ac``); ``rnd`` is
+the model-free agent with random network distillation's exploration bonus (``core.modelfree.rnd``), the
+intrinsic-motivation peer.
 The dual-system methods (``core.dual.agents``: im2c, i2a, cmc, la-imagination, mve) read ``agent.ac`` for
 their actor rule. The run package lists the methods it knows here, from above; a user's own method joins
 with :func:`register_algo` before training.
@@ -15,7 +17,9 @@ import numpy as np
 
 from core.config import Config, ConfigError
 from core.dual.agents import ValueExpansionAgent, make_cmc, make_i2a, make_im2c, make_la_imagination
-from core.modelfree.agent import Agent, EnvSpec, ModelFreeAgent
+from core.envs.spec import EnvSpec
+from core.modelfree.agent import Agent, ModelFreeAgent
+from core.modelfree.rnd import RNDAgent
 
 AlgoFactory = Callable[[Config, EnvSpec, np.random.Generator], Agent]
 
@@ -27,6 +31,7 @@ ALGOS: dict[str, AlgoFactory] = {
     "cmc": make_cmc,
     "la-imagination": make_la_imagination,
     "mve": ValueExpansionAgent,
+    "rnd": RNDAgent,
 }
 """The methods by name."""
 

@@ -114,3 +114,45 @@ def test_latent_replay_ring_and_round_trip():
     restored.load_state_dict(replay.state_dict())
     again = restored.sample(100, np.random.default_rng(0))
     assert torch.equal(again.latent, batch.latent)
+
+
+def test_float_observations_round_trip_exactly_in_their_own_dtype():
+    rng = np.random.default_rng(0)
+    states = rng.normal(0.0, 1e3, (6, 5)) * np.array([1.0, 1e-7, 1e7, -1.0, 3.14159])  # float64, odd scales
+    replay = PixelReplay(capacity=10, obs_shape=(5,), action_dim=2, obs_dtype="float64")
+    replay.start_episode(states[0])
+    for step in range(1, 6):
+        replay.add(np.zeros(2, np.float32), 0.0, states[step], terminated=False)
+    batch = replay.gather(np.arange(5))
+    assert batch.obs.dtype == torch.float64
+    assert np.array_equal(batch.obs.numpy(), states[:5])
+    assert np.array_equal(batch.next_obs.numpy(), states[1:])
+    restored = PixelReplay(capacity=10, obs_shape=(5,), action_dim=2, obs_dtype="float64")
+    restored.load_state_dict(replay.state_dict())
+    assert np.array_equal(restored.gather(np.arange(5)).obs.numpy(), states[:5])
+
+
+def test_images_take_one_byte_per_channel():
+    replay = PixelReplay(capacity=100, obs_shape=(48, 48, 3), action_dim=1)
+    assert replay.frames.dtype == np.uint8
+    assert replay.frames.nbytes == replay.frame_capacity * 48 * 48 * 3
+
+
+@pytest.mark.parametrize(
+    ("buffer_dtype", "obs"),
+    [
+        ("uint8", np.full(SHAPE, -1.2, dtype=np.float32)),  # MountainCar's position would have become 255
+        ("float32", np.zeros((3,), dtype=np.float64)),
+        ("uint8", np.zeros(SHAPE, dtype=np.int64)),
+    ],
+)
+def test_a_lossy_write_is_an_error_not_a_cast(buffer_dtype, obs):
+    replay = PixelReplay(capacity=4, obs_shape=obs.shape, action_dim=1, obs_dtype=buffer_dtype)
+    with pytest.raises(TypeError, match="without loss"):
+        replay.start_episode(obs)
+
+
+def test_a_lossless_write_is_stored():
+    replay = PixelReplay(capacity=4, obs_shape=(3,), action_dim=1, obs_dtype="float64")
+    replay.start_episode(np.array([1.5, -2.0, 0.25], dtype=np.float32))  # float32 → float64 is exact
+    assert replay.frames[0].tolist() == [1.5, -2.0, 0.25]

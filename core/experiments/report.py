@@ -7,6 +7,10 @@ Scores of one finished cell, from its run directory:
   area measured from reward −1, the reading that fits the paper's Table 1 (see ``core.runs.metrics``);
 * ``final_perf`` — Final Performance: mean episodic reward of the last 500 training episodes;
 * ``success`` — the final greedy evaluation's success rate (summary.json ``success_rate``);
+* ``eval_return`` — the final greedy evaluation's mean episodic return (summary.json ``eval_return``), the
+  score the gymnasium benchmarks publish;
+* ``first_success`` — a diagnostic: the env step at which the first training episode succeeded (reached
+  the goal, grasped); a cell that never succeeded counts as its whole budget (censored there);
 * ``train_length`` — a diagnostic, not a score: the mean length in env steps of the last 500 training
   episodes (from metrics.csv's ``global_step``). On a level where a failed grasp ends the episode, short
   episodes mean the policy closes its hand before it has travelled (docs/results.md).
@@ -43,12 +47,16 @@ METRICS: dict[str, str] = {
     "final_perf": "Final Perf",
     "train_success": "Training success",
     "success": "Greedy success",
+    "eval_return": "Greedy return",
+    "first_success": "Steps to first success",
     "train_length": "Episode length",
 }
 """Reported scores and their table names."""
-BOOTSTRAPPED = ("auc", "final_perf", "train_success", "success", "train_length")
+BOOTSTRAPPED = (
+    "auc", "final_perf", "train_success", "success", "eval_return", "first_success", "train_length"
+)
 """Scores with their own bootstrap (``auc_from_minus1`` is an affine map of ``auc``)."""
-DIAGNOSTICS = ("train_length",)
+DIAGNOSTICS = ("first_success", "train_length")
 """Reported with IQM and CI, but neither better when higher nor compared with the baseline."""
 
 MODEL_FREE = ("ddpg", "cacla")
@@ -103,6 +111,9 @@ def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord |
             returns.append(float(row["charts/episodic_return"]))
             successes.append(float(row.get("charts/success") or "nan"))
     success = summary.get("success_rate")
+    eval_return = summary.get("eval_return")
+    hits = [step for step, hit in zip(steps, successes, strict=True) if hit == 1.0]
+    first_success = hits[0] if hits else float(summary.get("steps") or (steps[-1] if steps else math.nan))
     return CellRecord(
         label=label,
         reward=reward,
@@ -119,6 +130,8 @@ def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord |
             # finds, where a sparse reward's Final Perf mixes grasps (+1) with topples (−1).
             "train_success": final_performance(successes),
             "success": math.nan if success is None else float(success),
+            "eval_return": math.nan if eval_return is None else float(eval_return),
+            "first_success": first_success,
             "train_length": final_performance(np.diff(steps, prepend=0.0).tolist()),
         },
     )
@@ -412,7 +425,10 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "- **Training success**: share of the last 500 training episodes (with exploration) that ended in a "
         "verified grasp.",
         "- **Greedy success**: success rate of the final greedy evaluation "
-        f"({spec.eval_episodes} episodes, fixed evaluation positions).",
+        f"({spec.eval_episodes} episodes, fixed evaluation positions); **Greedy return**: its mean "
+        "episodic return.",
+        "- **Steps to first success** (diagnostic, lower is sooner): env step at the end of the first "
+        "training episode that succeeded; a run that never did counts as its whole budget.",
         "- **IQM**: interquartile mean over seeds (25% trimmed mean); CIs: percentile bootstrap over seeds "
         "(rliable, stratified by task; one task per reward mode), fixed seed.",
         "",

@@ -48,6 +48,7 @@ def write_cell(
         "episodes": len(returns),
         "steps": 5 * len(returns),
         "success_rate": success,
+        "eval_return": 10.0 * success,
         "stopped": stopped,
     }
     (cell / "summary.json").write_text(json.dumps(summary))
@@ -95,6 +96,16 @@ def test_numbers_equal_a_hand_computation(made_up: Path) -> None:
     # Episode length: the made-up cells log one episode every 5 env steps; a diagnostic, not compared.
     assert m["train_length"]["mean"] == pytest.approx(5.0) and m["train_length"]["iqm"] == pytest.approx(5.0)
     assert "train_length" not in m["prob_improvement"]
+    # Greedy return: the final evaluation's mean return (10 × success here); compared with the baseline.
+    assert m["eval_return"]["mean"] == pytest.approx(10 * np.mean(SUCCESS["M"]))
+    assert m["prob_improvement"]["eval_return"]["p"] == pytest.approx(np.mean(
+        [[float(a > b) + 0.5 * float(a == b) for b in SUCCESS["B"]] for a in SUCCESS["M"]]
+    ))
+    # Steps to first success: M's first positive episode is the 101st (5 steps each); B never succeeds and
+    # counts as its whole budget (600 episodes × 5 steps); a diagnostic, not compared.
+    assert m["first_success"]["mean"] == pytest.approx(505.0)
+    assert report["methods"]["B"]["sparse"]["first_success"]["mean"] == pytest.approx(3000.0)
+    assert "first_success" not in m["prob_improvement"]
     for metric in ("auc", "final_perf", "success", "auc_from_minus1"):
         low, high = m[metric]["ci"]
         assert low <= m[metric]["iqm"] <= high

@@ -40,6 +40,10 @@ class TaskLevel:
     """Hand modes the level admits."""
     attempts_per_episode: int | None
     """Grasp attempts an episode allows; a failed one past the limit ends the episode. None: unlimited."""
+    charge_early_topple: bool = False
+    """Dense reward: a topple (−1, ends the episode) is also charged the shaping of the steps it cuts off,
+    as a failed attempt that ends the episode is, so that knocking the glass over is never the cheapest
+    way out (``hard`` since study 2; docs/environment.md)."""
 
 
 LEVELS: dict[str, TaskLevel] = {
@@ -74,6 +78,7 @@ LEVELS: dict[str, TaskLevel] = {
             hand="learned",
             hands=("learned",),
             attempts_per_episode=1,
+            charge_early_topple=True,
         ),
     )
 }

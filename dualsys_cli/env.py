@@ -116,11 +116,14 @@ def calibrate_level(
     typer.echo(f"level {level}, {reward} reward, hand {result['hand']}, {episodes} episodes per policy")
     for name in ("oracle", "random"):
         row = result[name]
-        typer.echo(f"  {name:<14} success {row['success']:6.1%}  toppled {row['toppled']:6.1%}")
+        typer.echo(
+            f"  {name:<14} success {row['success']:6.1%}  toppled {row['toppled']:6.1%}"
+            f"  mean return {row['mean_return']:8.3f}"
+        )
     best = result["best_constant"]
     typer.echo(
         f"  best constant  success {best['success']:6.1%}  toppled {best['toppled']:6.1%}"
-        f"  action {best['action']}"
+        f"  mean return {best['mean_return']:8.3f}  action {best['action']}"
     )
 
 

@@ -428,9 +428,12 @@ class NicoGraspEnv(gym.Env):
             reward = 1.0
         elif toppled:
             reward = -1.0
+            if self.reward_mode == "dense" and self.level.charge_early_topple:
+                # The episode ends early: the steps it cuts off are charged their shaping, as if the hand
+                # stayed where the glass fell, so a topple is never cheaper than a failed attempt there.
+                reward += self._shaping() * (self.max_steps - self._steps)
         elif self.reward_mode == "dense":
-            d = self._distance()
-            reward = -d if self.dense_shaping == "distance" else -(d * d)
+            reward = self._shaping()
             if out_of_attempts:
                 # The episode ends early, but the shaping is charged for the steps it would have had, as if
                 # the hand stayed where it closed: otherwise closing at once would be the cheapest way out.
@@ -441,6 +444,11 @@ class NicoGraspEnv(gym.Env):
         truncated = (not terminated) and self._steps >= self.max_steps
         self.last_info = self._info(success=success, toppled=toppled, attempted=attempted)
         return self._observe(), float(reward), terminated, truncated, dict(self.last_info)
+
+    def _shaping(self) -> float:
+        """The dense reward of one step: −d (paper text) or −d² (released code), d the glass-hand distance."""
+        d = self._distance()
+        return -d if self.dense_shaping == "distance" else -(d * d)
 
     def _validate_action(self, action) -> np.ndarray:
         arr = np.asarray(action, dtype=np.float32)

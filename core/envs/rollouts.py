@@ -12,13 +12,16 @@ Policy = Callable[[gym.Env, dict], np.ndarray]
 
 
 def rollout_rates(env: gym.Env, policy: Policy, episodes: int, seed: int = 0) -> dict[str, float]:
-    """Success and topple rates of `policy` over `episodes` episodes, episode i reset with seed + i."""
+    """Success and topple rates and the mean episodic return of `policy` over `episodes` episodes, episode i
+    reset with seed + i."""
     successes = toppled = steps = 0
+    total_return = 0.0
     for episode in range(episodes):
         _, info = env.reset(seed=seed + episode)
         done = False
         while not done:
-            _, _, terminated, truncated, info = env.step(policy(env, info))
+            _, reward, terminated, truncated, info = env.step(policy(env, info))
+            total_return += float(reward)
             steps += 1
             done = terminated or truncated
         successes += int(info["success"])
@@ -27,4 +30,5 @@ def rollout_rates(env: gym.Env, policy: Policy, episodes: int, seed: int = 0) ->
         "success": successes / episodes,
         "toppled": toppled / episodes,
         "mean_steps": steps / episodes,
+        "mean_return": total_return / episodes,
     }

@@ -209,3 +209,35 @@ def test_cli_show_draws_the_levels_start_pose(tmp_path):
 
     # The hand starts at 33° on released and at 0° on hard: the pictures differ.
     assert np.asarray(Image.open(released)).tobytes() != np.asarray(Image.open(hard)).tobytes()
+
+
+def _sweep_until_topple(env: NicoGraspEnv, glass_angle_deg: float) -> tuple[float, dict, int]:
+    """Sweep the open hand through a glass placed at `glass_angle_deg`; (reward, info, step) of the topple."""
+    env.reset(seed=0, options={"glass_angle_deg": glass_angle_deg})
+    for step in range(1, 6):
+        _, reward, terminated, _, info = env.step(np.array([1.0, -1.0], dtype=np.float32))
+        if info["toppled"]:
+            assert terminated
+            return reward, info, step
+    raise AssertionError("the sweep did not topple the glass")
+
+
+def test_hard_dense_charges_a_topple_the_shaping_of_the_steps_it_cuts_off():
+    env = NicoGraspEnv(level="hard", reward_mode="dense")
+    try:
+        reward, info, step = _sweep_until_topple(env, 29.0)
+        assert reward == pytest.approx(-1.0 - info["distance"] * (env.max_steps - step))
+        # never cheaper than a failed attempt at the same place, which is charged the same steps plus its own
+        assert reward < -info["distance"] * (env.max_steps - step + 1)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize(("level", "reward_mode"), [("hard", "sparse"), ("paper", "dense")])
+def test_a_topple_stays_a_flat_minus_one_elsewhere(level, reward_mode):
+    env = NicoGraspEnv(level=level, reward_mode=reward_mode)
+    try:
+        reward, _, _ = _sweep_until_topple(env, 29.0)
+        assert reward == -1.0
+    finally:
+        env.close()

@@ -178,6 +178,8 @@ class AgentConfig:
     """Std after annealing (equal to noise_std: no annealing)."""
     noise_anneal_steps: int = 30_000
     """Environment steps over which the std decays linearly to noise_final_std."""
+    sb3_hyperparams: Literal["dualsys", "zoo"] = "dualsys"
+    """SB3 peers only: dualsys (SB3 defaults on our budget) or zoo (RL Baselines3 Zoo's entry for env.id)."""
 
 
 @dataclass

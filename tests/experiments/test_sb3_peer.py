@@ -23,13 +23,8 @@ from core.config import NetConfig, load_config
 from core.experiments import cell_state, expand_cells, load_experiment, run_cell, run_experiment
 from core.experiments.dispatch import runner_for
 from core.experiments.report import build_report
-from core.experiments.sb3_peer import (
-    DualsysEncoderExtractor,
-    SB3Runner,
-    missing_sb3_message,
-    require_sb3,
-    train_sb3,
-)
+from core.experiments.sb3_peer import SB3Runner, train_sb3
+from core.experiments.sb3_settings import DualsysEncoderExtractor, missing_sb3_message, require_sb3
 from core.experiments.spec import ExperimentError
 from core.modelfree.networks import Encoder
 from core.runs.run_dir import load_checkpoint
@@ -87,7 +82,7 @@ def test_sac_policy_sees_uint8_observations_through_the_extractor_once_scaled(tm
     from stable_baselines3 import SAC
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from core.experiments.sb3_peer import extractor_kwargs
+    from core.experiments.sb3_settings import extractor_kwargs
     from core.runs.trainer import make_env
 
     config = load_config("default", TINY)

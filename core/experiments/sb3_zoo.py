@@ -135,7 +135,8 @@ def zoo_entry(algo: str, env_id: str) -> dict[str, Any]:
     where = f"RL Zoo's {algo} entry for {env_id}"
     for key, value in entry.items():
         if key in REFUSED_KEYS:
-            raise ExperimentError(f"{where} sets {key}: {value!r}, which is refused: {REFUSED_KEYS[key]}")
+            shown = f"{key}: {value!r}" if len(repr(value)) <= 60 else key
+            raise ExperimentError(f"{where} sets {shown}, which is refused: {REFUSED_KEYS[key]}")
     if int(entry.get("n_envs", 1)) != 1:
         raise ExperimentError(f"{where} trains on n_envs: {entry['n_envs']}; the SB3 peers run one env")
     parameters = _constructor_parameters(algo)

@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 	# The CPU build of PyTorch, pinned: a loose requirement would pull GBs of CUDA packages.
 	$(BIN)/python -m pip install -q torch==2.13.0
 	# dev: pytest, ruff, schemathesis; ray: the distributed executor, whose test starts a local Ray;
-	# bench: Stable-Baselines3 (accepts the CPU torch above) for the sb3-sac/sb3-td3 experiment tests;
+	# bench: Stable-Baselines3 (accepts the CPU torch above) and rl-zoo3 (RL Zoo's hyperparameters) for the SB3 peer tests;
 	# dmc: dm_control through shimmy, so the tests of dm_control tasks run.
 	$(BIN)/python -m pip install -q -e '.[dev,ray,bench,dmc]'
 	@touch $(STAMP)

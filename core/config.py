@@ -185,6 +185,8 @@ class AgentConfig:
     """``--algo rnd`` only: Adam learning rate of the RND predictor (Burda et al. 2018)."""
     rnd_dim: int = 64
     """``--algo rnd`` only: output size of the random target and the predictor networks."""
+    sb3_hyperparams: Literal["dualsys", "zoo"] = "dualsys"
+    """SB3 peers only: dualsys (SB3 defaults on our budget) or zoo (RL Baselines3 Zoo's entry for env.id)."""
 
 
 @dataclass

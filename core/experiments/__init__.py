@@ -2,7 +2,8 @@
 parallel (local processes or Ray tasks), resumable, and reported with rliable statistics and Fig. 8-style
 learning curves. No HTTP and no CLI here: ``dualsys experiment`` and the job service call these functions.
 May import every other package of ``core`` (it sits on ``core.runs``); nothing in ``core`` imports it.
-Inside, the modules stack: spec → runners → sb3_peer → dispatch → cells → runner/local/ray → report.
+Inside, the modules stack: spec → runners → sb3_zoo → sb3_settings → sb3_peer → dispatch → cells →
+runner/local/ray → report.
 
 * :func:`load_experiment` (``cells``) — read and validate an experiment file, every cell's config resolved.
 * :func:`expand_cells` / :func:`plan_experiment` — the grid's cells and their run directories.

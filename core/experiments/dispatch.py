@@ -5,7 +5,8 @@ Stable-Baselines3 runner for the SB3 peers, or a runner a user registers for an 
 from __future__ import annotations
 
 from core.experiments.runners import TRAINER_RUNNER, CellRunner
-from core.experiments.sb3_peer import SB3_ALGOS, SB3Runner
+from core.experiments.sb3_peer import SB3Runner
+from core.experiments.sb3_settings import SB3_ALGOS
 from core.experiments.spec import ExperimentError
 from core.runs.methods import ALGOS
 

@@ -233,7 +233,8 @@ def _report_numbers(
         "steps": spec.steps,
         "rewards": list(spec.rewards),
         "seeds": list(spec.seeds),
-        "level": spec.level,
+        "env": spec.env,
+        "level": spec.level if spec.nico_grasp else None,
         "profile": spec.profile,
         "methods": methods,
     }
@@ -340,10 +341,11 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
     lines = [f"# Experiment `{spec.name}`", ""]
     if spec.description:
         lines += [spec.description, ""]
+    task = f"level `{spec.level}`" if spec.nico_grasp else f"env `{spec.env}`"
     lines += [
         f"{report['done']} of {report['cells']} cells finished · {len(spec.methods)} methods × "
         f"{len(spec.rewards)} reward modes × {len(spec.seeds)} seeds · {spec.steps:,} env steps per cell · "
-        f"level `{spec.level}` · profile `{spec.profile}`.",
+        f"{task} · profile `{spec.profile}`.",
         "",
     ]
     if report["missing"]:

@@ -1,49 +1,56 @@
-"""A modern peer: Stable-Baselines3 SAC and TD3 from pixels, as methods of the experiment runner.
+"""A modern peer: Stable-Baselines3 SAC, TD3 and DDPG on any task, as methods of the experiment runner.
 
-``train_sb3(config, run_dir, algo="sac"|"td3", resume=..., on_episode=..., should_stop=...) -> summary``
-has the contract of :func:`core.runs.trainer.train`: the same training and evaluation envs
-(:func:`core.runs.trainer.make_env`), the same budget (``run.steps`` / ``run.episodes`` / ``run.max_wall_s``,
-checked at episode boundaries), the same first reset (``env.reset(seed=run.seed)``, then the env's own
-generator), greedy evaluations every ``run.eval_every`` training episodes with
-:func:`core.runs.trainer.evaluate` (seeds ``EVAL_SEED + k``) and once at the end, and a run directory with the
-same files, metrics.csv keys and summary.json keys (AuC and Final Perf from :mod:`core.runs.metrics`), so
-``dualsys experiment report`` reads an SB3 cell like any other.
+``train_sb3(config, run_dir, algo="sac"|"td3"|"ddpg", resume=..., on_episode=..., should_stop=...)``
+(the summary) has the contract of :func:`core.runs.trainer.train`: the same training and evaluation envs
+(:func:`core.runs.trainer.make_env`, actions rescaled to [-1, 1]), the same budget (``run.steps`` /
+``run.episodes`` / ``run.max_wall_s``, checked at episode boundaries), the same first reset
+(``env.reset(seed=run.seed)``, then the env's own generator), greedy evaluations every ``run.eval_every``
+training episodes with :func:`core.runs.trainer.evaluate` (seeds ``EVAL_SEED + k``, success by
+``env.success``) and once at the end, and a run directory with the same files, metrics.csv keys and
+summary.json keys (AuC and Final Perf from :mod:`core.runs.metrics`), so ``dualsys experiment report``
+reads an SB3 cell like any other. The policy and the hyperparameters come from
+:mod:`core.experiments.sb3_settings` (``agent.sb3_hyperparams``: ``dualsys`` — SB3's defaults on our
+budget, images through our encoder — or ``zoo``, RL Baselines3 Zoo's entry for the task); the run writes
+what it used to ``sb3_hyperparams.json``.
 
-The networks: SB3's ``CnnPolicy`` with its default heads (``net_arch=[256, 256]``, separate feature
-extractors for actor and critic) on :class:`DualsysEncoderExtractor`, our encoder f_ω of
-:mod:`modelfree.networks` built from ``config.net`` (the default profile: stride-2 3×3 convolutions
-16→32→32, a dense layer to the 32-d latent, ReLU). SB3's default NatureCNN needs images of at least 36 px on
-each side; ours are 32×64. SB3 moves images to channels-first (``VecTransposeImage``) and divides by 255 once
-(``normalize_images=True``); the extractor receives float ``[N, 3, 32, 64]`` in [0, 1], the input
-:class:`core.modelfree.networks.Encoder` expects, and does not scale again.
+Episodes and SB3's rollouts. SB3 collects ``train_freq`` steps (a "rollout"), then makes
+``gradient_steps`` updates. An episode that ends on a rollout's last step is closed (record, evaluation,
+checkpoint, budget, stop) after that update, at the next rollout start — with ``train_freq=1`` (the
+``dualsys`` setting) that is every episode. An episode that ends inside a rollout (the zoo's SAC on
+MountainCarContinuous-v0 collects 32 steps per update) is closed at its last step: when a checkpoint, a
+stop or the end of the budget falls there, the callback stores that step's transition as SB3 would
+(``_store_transition``, the episode count, the action-noise reset) and leaves ``learn``; the checkpoint
+records how far the rollout had got, and ``learn`` is entered again (in the same process, or on resume)
+with a first rollout of the remaining steps, so the update falls on the same env step as in an
+uninterrupted run. Either kind of checkpoint also holds the gSDE exploration matrices and the torch
+generator, restored at the next rollout start (SB3 resamples gSDE noise there). ``sde_sample_freq > 0``
+with a multi-step ``train_freq`` is the one case where a mid-rollout checkpoint shifts when gSDE noise is
+resampled next (no zoo entry the peers can run has both).
 
-SB3's defaults everywhere except (docs/model-free.md, "A modern peer"): ``learning_starts``,
-``buffer_size``, ``batch_size`` and ``gamma`` from ``config.agent`` (the same budget of warm-up, memory,
-minibatch and discount as our agents), and for TD3 Gaussian action noise N(0, 0.1²) (SB3's TD3 has no
-exploration noise by default; 0.1 is the TD3 paper's value). See :data:`NON_DEFAULTS`.
-
-Checkpoints (``checkpoints/``), written at episode boundaries after that step's gradient update, every
-``run.checkpoint_every`` episodes / ``run.checkpoint_every_s`` seconds and when the run ends or stops:
+Checkpoints (``checkpoints/``), at episode boundaries, every ``run.checkpoint_every`` episodes /
+``run.checkpoint_every_s`` seconds and when the run ends or stops:
 
 * ``sb3-model-<step>.zip`` — ``model.save`` (weights, optimisers, entropy coefficient, counters);
-* ``sb3-replay-<step>.pt`` — the replay buffer's filled part (``torch.save`` of uint8 arrays). Not
+* ``sb3-replay-<step>.pt`` — the replay buffer's filled part (``torch.save`` of its arrays). Not
   ``save_replay_buffer``: it pickles the whole preallocated capacity (1.2 GB at 100k transitions of
   3×32×64 obs and next obs) however little is filled;
 * ``latest.pt`` — a dualsys checkpoint (``core.runs.run_dir.load_checkpoint``) naming those two files, with
-  the counters, the evaluation history and every generator (torch, NumPy, Python, the action space's,
-  the training env's), written last; older SB3 files are removed after it. Every write is atomic, so
-  ``latest.pt`` always names a complete, consistent pair;
+  the counters, the evaluation history, the rollout's progress, the gSDE matrices and every generator
+  (torch, NumPy, Python, the action space's, the training env's), written last; older SB3 files are
+  removed after it. Every write is atomic, so ``latest.pt`` always names a complete, consistent pair;
 * ``best.zip`` — ``model.save`` at the best greedy evaluation (success rate, then return).
 
 Stopping and resume follow the trainer: ``should_stop()`` (or Ctrl-C) is polled every step; the run
-stops after that step's update, abandoning the episode; ``resume=True`` restores the model, the replay
-buffer and every generator, drops metrics.csv rows after the checkpoint and continues with the budget of
-the ``config`` passed in (its ``net``, ``env``, ``agent`` and ``dual`` sections and ``run.algo`` must
-match). An uninterrupted run and a stopped-and-resumed one of the same seed give the same episodes.
+stops at the end of the current rollout (at once when an episode ends inside it), abandoning the
+episode; ``resume=True`` restores the model, the replay buffer and every generator, drops metrics.csv rows
+after the checkpoint and continues with the budget of the ``config`` passed in (its ``net``, ``env``,
+``agent`` and ``dual`` sections and ``run.algo`` must match). An uninterrupted run and one stopped at an
+episode's end and resumed, of the same seed, give the same episodes.
 
 Stable-Baselines3 is optional (the ``bench`` extra); this module imports it only when a run starts, and
-a missing SB3 is the one-line :class:`core.experiments.spec.ExperimentError` of :func:`require_sb3`.
-``core.experiments.dispatch`` sends the cells of ``sb3-sac`` and ``sb3-td3`` to :class:`SB3Runner`.
+a missing SB3 is the one-line :class:`core.experiments.spec.ExperimentError` of
+:func:`core.experiments.sb3_settings.require_sb3`. ``core.experiments.dispatch`` sends the cells of
+``sb3-sac``, ``sb3-td3`` and ``sb3-ddpg`` to :class:`SB3Runner`.
 """
 
 from __future__ import annotations
@@ -61,96 +68,32 @@ from typing import Any
 
 import numpy as np
 import torch
-from torch import nn
 
-from core.config import Config, ConfigError, NetConfig
+from core.config import Config, ConfigError
+from core.envs.gym_env import episode_success
 from core.experiments.runners import (
     ConfigCellRunner,
     EpisodeCallback,
     cell_overrides,
 )
+from core.experiments.sb3_settings import (
+    SB3_ALGOS,
+    SB3Settings,
+    algorithm_class,
+    hyperparams_record,
+    make_model,
+    require_sb3,
+    sb3_settings,
+)
 from core.experiments.spec import ExperimentError, ExperimentSpec, MethodSpec
 from core.modelfree.agent import generator_state, restore_generator
-from core.modelfree.networks import Encoder
 from core.runs.bookkeeping import RunBookkeeping, mean_dicts
-from core.runs.run_dir import RunDirectoryError, atomic_torch_save, atomic_write_bytes
-
-try:  # the base class of the extractor; a stand-in keeps this module importable without SB3
-    from stable_baselines3.common.torch_layers import BaseFeaturesExtractor as _FeaturesBase
-except ImportError:  # pragma: no cover - exercised only where the bench extra is absent
-
-    class _FeaturesBase(nn.Module):  # type: ignore[no-redef]
-        def __init__(self, observation_space: Any, features_dim: int = 0) -> None:
-            require_sb3("sb3-sac")
-
-
-SB3_ALGOS: dict[str, str] = {"sb3-sac": "sac", "sb3-td3": "td3"}
-"""Experiment-runner algo name → SB3 algorithm (``train_sb3``'s ``algo``)."""
-
-NON_DEFAULTS: dict[str, str] = {
-    "learning_starts": "config.agent.learning_starts (ours: 500; SB3: 100) — the same warm-up budget",
-    "buffer_size": "config.agent.buffer_size (ours: 100_000; SB3: 1_000_000) — the same memory",
-    "batch_size": "config.agent.batch_size (ours: 64; SB3: 256) — the same minibatch per update",
-    "gamma": "config.agent.gamma (0.99 in both) — the discount is part of the task's objective",
-    "policy_kwargs.features_extractor_class": "DualsysEncoderExtractor (NatureCNN needs >= 36 px images)",
-    "action_noise (td3)": "NormalActionNoise(0, 0.1) — SB3's TD3 has none by default; TD3 paper's value",
-    "seed": "config.run.seed",
-    "device": "config.run.device",
-}
-"""Every setting that differs from SB3's defaults, and why (also in docs/model-free.md)."""
-
-TD3_NOISE_STD = 0.1
-"""Std of TD3's Gaussian exploration noise (Fujimoto et al. 2018; RL Zoo's usual value)."""
+from core.runs.run_dir import RunDirectoryError, atomic_torch_save, atomic_write_bytes, atomic_write_text
 
 _SB3_FORMAT = "dualsys-sb3/1"
 
-
-def missing_sb3_message(name: str) -> str:
-    return f"{name} needs Stable-Baselines3: pip install 'dualsys[bench]'"
-
-
-def require_sb3(name: str = "sb3-sac") -> None:
-    """Raise the one-line ExperimentError (exit 2 in the CLI) when Stable-Baselines3 is not installed."""
-    try:
-        import stable_baselines3  # noqa: F401
-    except ImportError:
-        raise ExperimentError(missing_sb3_message(name)) from None
-
-
-# -- the features extractor ---------------------------------------------------------------------
-
-
-class DualsysEncoderExtractor(_FeaturesBase):
-    """SB3 features extractor = :class:`modelfree.networks.Encoder` (our f_ω), so SAC/TD3 see pixels through
-    the same convolutional shape as our agents and the comparison isolates the algorithm.
-
-    ``observation_space``: SB3's channels-first image space ``(3, H, W)`` (after ``VecTransposeImage``).
-    ``forward`` takes what SB3's ``preprocess_obs`` makes of it: float ``[N, 3, H, W]`` already divided by
-    255 (``normalize_images=True``, SB3's default) — the input of ``Encoder.forward``; no second scaling.
-    Output: the latent φ, ``[N, latent_dim]`` (ReLU), ``features_dim = latent_dim``.
-    """
-
-    def __init__(
-        self,
-        observation_space: Any,
-        arch: str = "strided",
-        conv_channels: tuple[int, ...] | list[int] = (16, 32, 32),
-        latent_dim: int = 32,
-    ) -> None:
-        shape = tuple(int(n) for n in observation_space.shape)
-        if len(shape) != 3 or shape[0] not in (1, 3, 4):
-            raise ValueError(f"DualsysEncoderExtractor needs a channels-first image space, got {shape}")
-        super().__init__(observation_space, features_dim=int(latent_dim))
-        net = NetConfig(arch=arch, conv_channels=tuple(int(c) for c in conv_channels), latent_dim=latent_dim)  # type: ignore[arg-type]
-        channels, height, width = shape
-        self.encoder = Encoder(net, obs_shape=(height, width, channels))
-
-    def forward(self, observations: torch.Tensor) -> torch.Tensor:
-        return self.encoder(observations)
-
-
-def extractor_kwargs(net: NetConfig) -> dict[str, Any]:
-    return {"arch": net.arch, "conv_channels": list(net.conv_channels), "latent_dim": net.latent_dim}
+HYPERPARAMS_FILE = "sb3_hyperparams.json"
+"""The run directory's record of the SB3 settings used (:func:`sb3_settings.hyperparams_record`)."""
 
 
 # -- env wrapper, greedy adapter ----------------------------------------------------------------
@@ -164,17 +107,26 @@ def _env_rng_state(env: Any) -> dict[str, Any]:
 
 def _make_reset_recorder(env: Any) -> Any:
     """The training env, remembering its generator just before each reset (a checkpoint at an episode
-    boundary is written after SB3's automatic reset; resuming replays that reset from this state)."""
+    boundary is written after SB3's automatic reset; resuming replays that reset from this state) and the
+    last step's ``terminated``/``truncated`` (SB3's VecEnv folds them into ``done``; ``env.success`` needs
+    them as the trainer sees them)."""
     import gymnasium as gym
 
     class ResetRecorder(gym.Wrapper):
         def __init__(self, inner: Any) -> None:
             super().__init__(inner)
             self.before_reset: dict[str, Any] = _env_rng_state(inner)
+            self.terminated = False
+            self.truncated = False
 
         def reset(self, **kwargs: Any) -> Any:
             self.before_reset = _env_rng_state(self.env)
             return self.env.reset(**kwargs)
+
+        def step(self, action: Any) -> Any:
+            obs, reward, terminated, truncated, info = self.env.step(action)
+            self.terminated, self.truncated = bool(terminated), bool(truncated)
+            return obs, reward, terminated, truncated, info
 
     return ResetRecorder(env)
 
@@ -190,7 +142,7 @@ class GreedyPolicy:
         return np.asarray(action, dtype=np.float32), {}
 
 
-# -- the run ------------------------------------------------------------------------------------
+# -- SB3 state that a checkpoint adds to the model file ------------------------------------------
 
 
 class _EndOfRun(Exception):
@@ -234,6 +186,77 @@ def _load_replay_state(buffer: Any, state: Mapping[str, Any]) -> None:
     buffer.full = bool(state["full"])
 
 
+def _sde_state(model: Any) -> dict[str, torch.Tensor]:
+    """gSDE's current exploration matrices (SAC with ``use_sde``), or nothing."""
+    dist = getattr(getattr(model, "actor", None), "action_dist", None)
+    if not getattr(model, "use_sde", False) or dist is None:
+        return {}
+    return {
+        name: getattr(dist, name).detach().clone()
+        for name in ("exploration_mat", "exploration_matrices")
+        if isinstance(getattr(dist, name, None), torch.Tensor)
+    }
+
+
+def _restore_sde_state(model: Any, state: Mapping[str, torch.Tensor]) -> None:
+    dist = getattr(getattr(model, "actor", None), "action_dist", None)
+    for name, tensor in state.items():
+        setattr(dist, name, tensor.clone())
+
+
+def _rollout_ends(train_freq: Any, steps: int, episodes: int) -> bool:
+    """Whether SB3's rollout of ``train_freq`` is complete after ``steps`` steps and ``episodes`` episodes."""
+    from stable_baselines3.common.utils import should_collect_more_steps
+
+    return not should_collect_more_steps(train_freq, steps, episodes)
+
+
+def _remaining(train_freq: Any, steps: int, episodes: int) -> Any:
+    """The rest of a rollout of ``train_freq`` that has collected ``steps`` steps and ``episodes``
+    episodes."""
+    from stable_baselines3.common.type_aliases import TrainFreq, TrainFrequencyUnit
+
+    if train_freq.unit == TrainFrequencyUnit.STEP:
+        return TrainFreq(train_freq.frequency - steps, train_freq.unit)
+    return TrainFreq(train_freq.frequency - episodes, train_freq.unit)
+
+
+def _store_last_step(model: Any, local: Mapping[str, Any]) -> None:
+    """What ``OffPolicyAlgorithm.collect_rollouts`` (SB3 2.x) does after the callback's ``on_step`` for the
+    step in ``local`` (its local variables): store the transition, count a finished episode and reset the
+    action noise — so ``learn`` can be left right after an episode's last step."""
+    model._update_info_buffer(local["infos"], local["dones"])
+    model._store_transition(
+        local["replay_buffer"],
+        local["buffer_actions"],
+        local["new_obs"],
+        local["rewards"],
+        local["dones"],
+        local["infos"],
+    )
+    model._update_current_progress_remaining(model.num_timesteps, model._total_timesteps)
+    model._on_step()
+    for done in local["dones"]:
+        if done:
+            model._episode_num += 1
+            if local["action_noise"] is not None:
+                local["action_noise"].reset()
+
+
+@dataclasses.dataclass
+class _Continuation:
+    """Where a rollout was left: applied at the next rollout start of ``learn`` (re-entered or resumed)."""
+
+    steps: int = 0
+    """Steps the rollout had collected (0: the checkpoint was taken at a rollout start)."""
+    episodes: int = 0
+    torch_rng: torch.Tensor | None = None
+    sde: Mapping[str, torch.Tensor] = dataclasses.field(default_factory=dict)
+
+
+# -- the run ------------------------------------------------------------------------------------
+
+
 class _SB3Run(RunBookkeeping):
     """State of one ``train_sb3`` call (the bookkeeping of ``core.runs.trainer._Trainer``, SB3's training)."""
 
@@ -248,7 +271,7 @@ class _SB3Run(RunBookkeeping):
         command: str | None,
     ) -> None:
         if algo not in SB3_ALGOS.values():
-            raise ConfigError(f"unknown SB3 algorithm {algo!r} (choose from sac, td3)")
+            raise ConfigError(f"unknown SB3 algorithm {algo!r} (choose from {', '.join(SB3_ALGOS.values())})")
         self.algo = algo
         self.name = f"sb3-{algo}"
         require_sb3(self.name)
@@ -261,48 +284,14 @@ class _SB3Run(RunBookkeeping):
         if checkpoint.get("sb3", {}).get("format") != _SB3_FORMAT:
             raise RunDirectoryError(f"{self.dir.latest_path} is not a Stable-Baselines3 run's checkpoint")
 
-    def _algorithm_class(self) -> Any:
-        from stable_baselines3 import SAC, TD3
-
-        return SAC if self.algo == "sac" else TD3
-
-    def _hyperparameters(self, action_dim: int) -> dict[str, Any]:
-        agent = self.config.agent
-        kwargs: dict[str, Any] = {
-            "learning_starts": agent.learning_starts,
-            "buffer_size": agent.buffer_size,
-            "batch_size": agent.batch_size,
-            "gamma": agent.gamma,
-        }
-        if self.algo == "td3":
-            from stable_baselines3.common.noise import NormalActionNoise
-
-            kwargs["action_noise"] = NormalActionNoise(
-                mean=np.zeros(action_dim), sigma=TD3_NOISE_STD * np.ones(action_dim)
-            )
-        return kwargs
-
-    def _build(self, venv: Any, checkpoint: dict[str, Any] | None) -> Any:
-        cls = self._algorithm_class()
-        action_dim = int(venv.action_space.shape[0])
-        kwargs = self._hyperparameters(action_dim)
+    def _build(self, venv: Any, settings: SB3Settings, checkpoint: dict[str, Any] | None) -> Any:
+        cfg = self.config.run
         if checkpoint is None:
-            return cls(
-                "CnnPolicy",
-                venv,
-                policy_kwargs={
-                    "features_extractor_class": DualsysEncoderExtractor,
-                    "features_extractor_kwargs": extractor_kwargs(self.config.net),
-                },
-                seed=self.config.run.seed,
-                device=self.config.run.device,
-                verbose=0,
-                **kwargs,
-            )
+            return make_model(settings, self.algo, venv, seed=cfg.seed, device=cfg.device)
         sb3 = checkpoint["sb3"]
-        extra = {"action_noise": kwargs["action_noise"]} if "action_noise" in kwargs else {}
-        model = cls.load(
-            self.dir.checkpoints / sb3["model"], env=venv, device=self.config.run.device, **extra
+        extra = {"action_noise": settings.kwargs["action_noise"]} if "action_noise" in settings.kwargs else {}
+        model = algorithm_class(self.algo).load(
+            self.dir.checkpoints / sb3["model"], env=venv, device=cfg.device, **extra
         )
         replay = torch.load(self.dir.checkpoints / sb3["replay"], map_location="cpu", weights_only=True)
         _load_replay_state(model.replay_buffer, replay)
@@ -312,7 +301,7 @@ class _SB3Run(RunBookkeeping):
         venv._reset_seeds()
         return model
 
-    def _restore(self, checkpoint: dict[str, Any], model: Any, env: Any) -> None:
+    def _restore(self, checkpoint: dict[str, Any], model: Any, env: Any) -> _Continuation:
         from core.runs.trainer import _restore_env_rng
 
         if int(model.num_timesteps) != int(checkpoint["counters"]["global_step"]):
@@ -328,9 +317,24 @@ class _SB3Run(RunBookkeeping):
         restore_generator(model.action_space.np_random, rngs["action_space"])
         _restore_env_rng(env, checkpoint["env_rng"])
         self._restore_progress(checkpoint)
+        rollout = checkpoint["sb3"].get("rollout", {})
+        return _Continuation(
+            steps=int(rollout.get("steps", 0)),
+            episodes=int(rollout.get("episodes", 0)),
+            torch_rng=rngs["torch"],
+            sde=checkpoint["sb3"].get("sde", {}),
+        )
+
+    def _write_hyperparams(self, settings: SB3Settings, model: Any) -> None:
+        record = hyperparams_record(settings, self.algo, model, self.config)
+        atomic_write_text(self.dir.root / HYPERPARAMS_FILE, json.dumps(record, indent=2) + "\n")
 
     # -- checkpoints ----------------------------------------------------------------------------
-    def _save_latest(self, model: Any, env_rng: dict[str, Any], wall_s: float) -> None:
+    def _save_latest(
+        self, model: Any, env_rng: dict[str, Any], wall_s: float, rollout: tuple[int, int] = (0, 0)
+    ) -> None:
+        """``latest.pt`` and its model/replay pair; ``rollout``: (steps, episodes) the current rollout had
+        collected, (0, 0) at a rollout start."""
         checkpoints = self.dir.checkpoints
         model_name = f"sb3-model-{self.global_step}.zip"
         replay_name = f"sb3-replay-{self.global_step}.pt"
@@ -348,6 +352,8 @@ class _SB3Run(RunBookkeeping):
                     "model": model_name,
                     "replay": replay_name,
                     "version": _sb3_version(),
+                    "rollout": {"steps": int(rollout[0]), "episodes": int(rollout[1])},
+                    "sde": _sde_state(model),
                 },
                 "rng": {
                     "torch": torch.get_rng_state(),
@@ -368,7 +374,12 @@ class _SB3Run(RunBookkeeping):
     def _evaluate(self, model: Any, eval_env: Any) -> dict[str, float]:
         from core.runs.trainer import evaluate
 
-        result = evaluate(GreedyPolicy(model), eval_env, self.config.run.eval_episodes)  # type: ignore[arg-type]
+        result = evaluate(
+            GreedyPolicy(model),  # type: ignore[arg-type]
+            eval_env,
+            self.config.run.eval_episodes,
+            success_rule=self.config.env.success,
+        )
         if self._record_evaluation(result):
             atomic_write_bytes(self.dir.checkpoints / "best.zip", _model_bytes(model))
         return result
@@ -381,47 +392,62 @@ class _SB3Run(RunBookkeeping):
 
         checkpoint = self._begin()
         cfg = self.config
-        env = make_env(cfg).env
+        adapted = make_env(cfg)
+        env = adapted.env
         recorder = _make_reset_recorder(env)
         venv = DummyVecEnv([lambda: recorder])
         self.eval_env: Any = None
         try:
-            model = self._build(venv, checkpoint)
+            settings = sb3_settings(cfg, self.algo, adapted.spec)
+            model = self._build(venv, settings, checkpoint)
+            self._write_hyperparams(settings, model)
+            continuation = None
             if checkpoint is not None:
-                self._restore(checkpoint, model, env)
+                continuation = self._restore(checkpoint, model, env)
             self._start_clock()
-            callback = self._callback(model, recorder, env)
+            callback = self._callback(model, recorder, env, continuation)
             with self.stop_flag:
-                with contextlib.suppress(_EndOfRun):  # the callback ends the run at an episode boundary
-                    model.learn(
-                        total_timesteps=10**12,
-                        callback=callback,
-                        reset_num_timesteps=checkpoint is None,
-                        log_interval=None,  # type: ignore[arg-type]
-                    )
+                first = checkpoint is None
+                while True:
+                    with contextlib.suppress(_EndOfRun):  # the callback ends the run at an episode boundary
+                        model.learn(
+                            total_timesteps=10**12,
+                            callback=callback,
+                            reset_num_timesteps=first,
+                            log_interval=None,  # type: ignore[arg-type]
+                        )
+                    first = False
+                    if callback.continuation is None:
+                        break
+                    # the callback left learn() inside a rollout for a checkpoint: go on from there
                 final_eval: dict[str, float] = {}
                 if self._final_evaluation_due():
                     self.eval_env = self.eval_env or make_env(cfg, evaluation=True).env
                     final_eval = self._evaluate(model, self.eval_env)
             # at an episode boundary the env was already reset for the next episode: resume replays it
             env_rng = recorder.before_reset if callback.at_boundary else _env_rng_state(env)
-            self._save_latest(model, env_rng, self.wall())
+            self._save_latest(model, env_rng, self.wall(), callback.rollout_progress())
             return self._finish(final_eval, ac=None)
         finally:
             venv.close()
             if self.eval_env is not None:
                 self.eval_env.close()
 
-    def _callback(self, model: Any, recorder: Any, env: Any) -> Any:
+    def _callback(self, model: Any, recorder: Any, env: Any, continuation: _Continuation | None) -> Any:
         from stable_baselines3.common.callbacks import BaseCallback
 
         from core.runs.trainer import make_env
 
         run = self
+        train_freq = model.train_freq
+        gradient_steps = model.gradient_steps
+        if continuation is not None and (continuation.steps or continuation.episodes):
+            model.train_freq = _remaining(train_freq, continuation.steps, continuation.episodes)
 
         class EpisodeRecords(BaseCallback):
-            """Per step: sum the episode, poll the stop flag. At the next rollout start (after that
-            step's gradient update): the episode record, evaluation, checkpoint, budget and stop."""
+            """Per step: sum the episode, poll the stop flag, close an episode that ends inside a rollout.
+            At the next rollout start (after the update): close an episode that ended on the rollout's last
+            step, and end the run when due. See the module docstring."""
 
             def __init__(self) -> None:
                 super().__init__(verbose=0)
@@ -431,25 +457,105 @@ class _SB3Run(RunBookkeeping):
                 self.losses: list[dict[str, float]] = []
                 self.n_updates = int(model._n_updates)
                 self.at_boundary = True
+                self.rollout_steps = 0
+                self.rollout_episodes = 0
+                self.continuation: _Continuation | None = continuation
+                """Set when the rollout was left in the middle (or resumed): applied at the next start."""
+
+            def rollout_progress(self) -> tuple[int, int]:
+                return self.rollout_steps, self.rollout_episodes
+
+            def _on_training_start(self) -> None:
+                # SB3's schedules see progress_remaining = 1 - num_timesteps / _total_timesteps: our budget
+                if run.config.run.steps is not None:
+                    model._total_timesteps = int(run.config.run.steps)
+
+            def _on_rollout_start(self) -> None:
+                model.gradient_steps = gradient_steps
+                if self.continuation is not None:
+                    self._continue(self.continuation)
+                    self.continuation = None
+                    return
+                self.rollout_steps = self.rollout_episodes = 0
+                self._collect_losses()
+                if self.finished is not None:
+                    self._close(self.finished)
+                    self.finished = None
+                    if run._checkpoint_due():
+                        run._save_latest(model, recorder.before_reset, run.wall())
+                        run.last_checkpoint = time.perf_counter()
+                if run.stopped or run.stop_flag():
+                    run.stopped = True
+                    raise _EndOfRun
+                if self.at_boundary and run._budget_spent():
+                    raise _EndOfRun
+
+            def _continue(self, where: _Continuation) -> None:
+                """The first rollout start after leaving ``learn`` mid-rollout, or after a resume: the rollout
+                goes on from ``where`` (SB3 has just resampled gSDE noise; put back the matrices and the
+                torch generator of the moment the rollout was left)."""
+                model.train_freq = train_freq
+                self.rollout_steps, self.rollout_episodes = where.steps, where.episodes
+                if where.torch_rng is not None:
+                    torch.set_rng_state(where.torch_rng)
+                _restore_sde_state(model, where.sde)
+
+            def _on_rollout_end(self) -> None:
+                # gradient_steps=-1 trains as many steps as the rollout collected: all of it, not the rest
+                if gradient_steps < 0:
+                    model.gradient_steps = self.rollout_steps
 
             def _on_step(self) -> bool:
                 run.global_step += 1
                 self.length += 1
+                self.rollout_steps += 1
                 self.episode_return += float(self.locals["rewards"][0])
                 self.at_boundary = False
+                keep_going = True
                 if bool(self.locals["dones"][0]):
                     info = self.locals["infos"][0]
-                    self.finished = {
+                    finished = {
                         "return": self.episode_return,
                         "length": self.length,
-                        "success": bool(info.get("success", False)),
+                        "success": episode_success(
+                            info, recorder.terminated, recorder.truncated, run.config.env.success
+                        ),
                         "toppled": bool(info.get("toppled", False)),
                     }
                     self.episode_return, self.length = 0.0, 0
                     self.at_boundary = True
+                    self.rollout_episodes += 1
+                    if _rollout_ends(train_freq, self.rollout_steps, self.rollout_episodes):
+                        self.finished = finished  # closed after this rollout's update
+                    else:
+                        keep_going = self._close_inside_rollout(finished)
                 if run.stop_flag():
                     run.stopped = True
-                return True
+                return keep_going
+
+            def _close_inside_rollout(self, finished: dict[str, Any]) -> bool:
+                """Close an episode that ended inside a rollout. When a checkpoint, a stop or the end of the
+                budget falls here: store the step as SB3 would, checkpoint (unless the run ends: ``run``
+                writes the last one), and return False to leave ``learn``."""
+                self._close(finished)
+                end = run.stopped or run.stop_flag() or run._budget_spent()
+                checkpoint = run._checkpoint_due()
+                if not (end or checkpoint):
+                    return True
+                _store_last_step(model, self.locals)
+                if end:
+                    run.stopped = run.stopped or run.stop_flag()
+                    return False
+                run._save_latest(model, recorder.before_reset, run.wall(), self.rollout_progress())
+                run.last_checkpoint = time.perf_counter()
+                self.continuation = _Continuation(
+                    steps=self.rollout_steps,
+                    episodes=self.rollout_episodes,
+                    torch_rng=torch.get_rng_state(),
+                    sde=_sde_state(model),
+                )
+                model.train_freq = _remaining(train_freq, self.rollout_steps, self.rollout_episodes)
+                return False
 
             def _collect_losses(self) -> None:
                 if int(model._n_updates) == self.n_updates:
@@ -464,18 +570,9 @@ class _SB3Run(RunBookkeeping):
                     losses["sb3/ent_coef"] = logged.get("train/ent_coef")
                 self.losses.append({k: float(v) for k, v in losses.items() if v is not None})
 
-            def _on_rollout_start(self) -> None:
-                self._collect_losses()
-                if self.finished is not None:
-                    self._end_episode(self.finished)
-                    self.finished = None
-                if run.stopped or run.stop_flag():
-                    run.stopped = True
-                    raise _EndOfRun
-                if self.at_boundary and run._budget_spent():
-                    raise _EndOfRun
-
-            def _end_episode(self, finished: dict[str, Any]) -> None:
+            def _close(self, finished: dict[str, Any]) -> None:
+                """The episode record (with the losses of the updates since the last one) and an evaluation
+                when due."""
                 record = run._new_record(
                     finished["return"], finished["length"], finished["success"], finished["toppled"]
                 )
@@ -485,9 +582,6 @@ class _SB3Run(RunBookkeeping):
                     run.eval_env = run.eval_env or make_env(run.config, evaluation=True).env
                     record.update(run._evaluate(model, run.eval_env))
                 run._log_episode(record)
-                if run._checkpoint_due():
-                    run._save_latest(model, recorder.before_reset, run.wall())
-                    run.last_checkpoint = time.perf_counter()
 
         return EpisodeRecords()
 
@@ -508,10 +602,12 @@ def train_sb3(
     should_stop: Callable[[], bool] | None = None,
     command: str | None = None,
 ) -> dict[str, Any]:
-    """Train SB3 ``algo`` (``sac`` or ``td3``) into ``run_dir`` (or continue it); returns the summary.
+    """Train SB3 ``algo`` (``sac``, ``td3`` or ``ddpg``) into ``run_dir`` (or continue it); returns the
+    summary.
 
     Same contract as :func:`core.runs.trainer.train` (see the module docstring); ``config.run.algo`` is set to
-    ``sb3-<algo>``. Raises ExperimentError (one line) when Stable-Baselines3 is not installed.
+    ``sb3-<algo>``. Raises ExperimentError (one line) when Stable-Baselines3 is not installed, or when
+    ``agent.sb3_hyperparams=zoo`` and RL Zoo has no usable entry for ``env.id``.
     """
     return _SB3Run(config, Path(run_dir), algo, resume, on_episode, should_stop, command).run()
 
@@ -520,8 +616,10 @@ def train_sb3(
 
 
 class SB3Runner(ConfigCellRunner):
-    """Cells of ``sb3-sac`` / ``sb3-td3``: ``core.config`` (profile → overrides → the cell's keys, as for
-    every method) + :func:`train_sb3`. ``run.algo`` is the SB3 name (not in ``core.runs.methods``)."""
+    """Cells of ``sb3-sac`` / ``sb3-td3`` / ``sb3-ddpg``: ``core.config`` (profile → overrides → the cell's
+    keys, as for every method) + :func:`train_sb3`. ``run.algo`` is the SB3 name (not in
+    ``core.runs.methods``). With ``agent.sb3_hyperparams=zoo`` the zoo's entry for the env is checked here,
+    so a task without one fails before anything is written."""
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -536,9 +634,16 @@ class SB3Runner(ConfigCellRunner):
                 f"bad value for ac: method {method.label!r} ({self.name}) has no actor-update rule of ours"
             )
         items = cell_overrides(spec, method, reward, seed, algo=self.name)
-        return self._checked_config(method, reward, lambda: load_config(spec.profile, items))
+
+        def build() -> Config:
+            config = load_config(spec.profile, items)
+            if config.agent.sb3_hyperparams == "zoo":
+                from core.experiments.sb3_zoo import zoo_entry
+
+                zoo_entry(self.algo, config.env.id)
+            return config
+
+        return self._checked_config(method, reward, build)
 
     def training_function(self) -> Callable[..., dict[str, Any]]:
         return functools.partial(train_sb3, algo=self.algo)
-
-

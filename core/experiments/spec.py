@@ -160,9 +160,10 @@ class ExperimentSpec:
             out["env"] = self.env
             if self.env_kwargs:
                 out["env_kwargs"] = dict(self.env_kwargs)
+        if self.nico_grasp:
+            out["level"] = self.level  # another env has no task level (read_experiment refuses one)
         out.update(
             {
-                "level": self.level,
                 "rewards": list(self.rewards),
                 "seeds": list(self.seeds),
                 "steps": self.steps,

@@ -88,6 +88,25 @@ def test_shipped_grids_load(name):
         assert len({method.label for method in spec.methods}) in (3, 4)
 
 
+def test_shipped_mountaincar_grid_and_a_task_without_levels_round_trips(tmp_path):
+    pytest.importorskip("rl_zoo3", reason="RL Baselines3 Zoo is in the bench extra")  # SB3 zoo peers
+    spec = load_experiment(SHIPPED / "mountaincar.yaml")
+    assert spec.env == "MountainCarContinuous-v0" and spec.rewards == ("task",) and spec.steps == 50_000
+    assert spec.seeds == (1, 2, 3, 4, 5)
+    assert [(m.label, m.algo) for m in spec.methods] == [
+        ("DDPG", "ddpg"),
+        ("DDPG+IM2C", "im2c"),
+        ("DDPG+I2A", "i2a"),
+        ("SB3-DDPG-zoo", "sb3-ddpg"),
+        ("SB3-SAC-zoo", "sb3-sac"),
+    ]
+    cells = expand_cells(spec, tmp_path)
+    assert {c.config["agent"]["sb3_hyperparams"] for c in cells if c.algo.startswith("sb3-")} == {"zoo"}
+    assert {c.config["env"]["success"] for c in cells} == {"terminated"}
+    stored = spec.to_dict()  # what experiment.yaml holds, and what a report reads back
+    assert "level" not in stored and load_experiment(stored) == spec
+
+
 def test_shipped_grids_are_the_papers(tmp_path):
     algos = {
         name: {(m.label, m.algo, m.ac) for m in load_experiment(SHIPPED / f"{name}.yaml").methods}

@@ -1,6 +1,9 @@
-"""Stable-Baselines3 SAC/TD3 as experiment methods (core/experiments/sb3_peer.py): the run directory and its
-keys match the trainer's, stop + resume continues the same episodes, a seed reproduces a run, the features
-extractor is our encoder, and the experiment runner dispatches ``sb3-sac``/``sb3-td3`` to it."""
+"""Stable-Baselines3 SAC/TD3/DDPG as experiment methods (core/experiments/sb3_peer.py, sb3_settings.py): the
+run directory and its keys match the trainer's, stop + resume continues the same episodes (on NicoGrasp's
+images, and on a vector task with the zoo's 32-step rollouts), a seed reproduces a run, the features extractor
+is our encoder, vector tasks get MlpPolicy, the dualsys setting is exactly NON_DEFAULTS, and
+``dualsys experiment run`` trains ``sb3-sac``/``sb3-td3``/``sb3-ddpg`` on NicoGrasp, MountainCarContinuous-v0
+(the zoo's hyperparameters) and Pendulum-v1."""
 
 from __future__ import annotations
 
@@ -19,16 +22,17 @@ pytest.importorskip(
 import torch
 from gymnasium import spaces
 
-from core.config import NetConfig, load_config
+from core.config import Config, NetConfig, load_config
 from core.experiments import cell_state, expand_cells, load_experiment, run_cell, run_experiment
 from core.experiments.dispatch import runner_for
 from core.experiments.report import build_report
-from core.experiments.sb3_peer import (
+from core.experiments.sb3_peer import SB3Runner, train_sb3
+from core.experiments.sb3_settings import (
+    NON_DEFAULTS,
     DualsysEncoderExtractor,
-    SB3Runner,
     missing_sb3_message,
     require_sb3,
-    train_sb3,
+    sb3_settings,
 )
 from core.experiments.spec import ExperimentError
 from core.modelfree.networks import Encoder
@@ -87,7 +91,7 @@ def test_sac_policy_sees_uint8_observations_through_the_extractor_once_scaled(tm
     from stable_baselines3 import SAC
     from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from core.experiments.sb3_peer import extractor_kwargs
+    from core.experiments.sb3_settings import extractor_kwargs
     from core.runs.trainer import make_env
 
     config = load_config("default", TINY)
@@ -207,7 +211,8 @@ def test_experiment_runner_dispatches_sb3_methods(tmp_path):
         methods=[{"label": "DDPG", "algo": "ddpg"}, {"label": "SAC", "algo": "sb3-sac"}],
     )
     spec = load_experiment(data)
-    assert isinstance(runner_for("sb3-sac"), SB3Runner) and isinstance(runner_for("sb3-td3"), SB3Runner)
+    for name in ("sb3-sac", "sb3-td3", "sb3-ddpg"):
+        assert isinstance(runner_for(name), SB3Runner)
     cells = expand_cells(spec, tmp_path)
     sac = next(cell for cell in cells if cell.algo == "sb3-sac")
     assert sac.config["run"]["algo"] == "sb3-sac" and sac.config["run"]["num_threads"] == 1
@@ -237,3 +242,175 @@ def test_missing_sb3_is_a_one_line_error(monkeypatch, tmp_path, write_experiment
     assert result.exit_code == 2
     assert result.output.strip() == "error: sb3-sac needs Stable-Baselines3: pip install 'dualsys[bench]'"
     assert not (tmp_path / "out").exists()
+
+
+# -- vector tasks ---------------------------------------------------------------------------------
+
+MOUNTAIN_CAR = "MountainCarContinuous-v0"
+
+
+def vector_grid(path, env: str, methods: list[dict], steps: int = 300, **changes) -> None:
+    """A tiny experiment file on ``env``: 100-step episodes, one seed, one final 1-episode evaluation."""
+    data = {
+        "name": "vector",
+        "env": env,
+        "env_kwargs": {"max_episode_steps": 100},
+        "seeds": 1,
+        "steps": steps,
+        "eval_every": 0,
+        "eval_episodes": 1,
+        "overrides": {"env.success": "terminated", "run.checkpoint_every": 2},
+        "methods": methods,
+        **changes,
+    }
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+
+
+def run_grid(path, out) -> dict:
+    result = CliRunner().invoke(
+        app, ["experiment", "run", str(path), "--out", str(out), "--workers", "1", "--json"]
+    )
+    assert result.exit_code == 0, result.output
+    outcome = json.loads(result.stdout.strip().splitlines()[-1])
+    assert outcome["complete"], outcome
+    return outcome
+
+
+@pytest.mark.timeout(1800)  # worker processes on a loaded 2-core machine (see test_experiment_run.py)
+def test_experiment_run_trains_the_zoo_peers_on_mountaincar(tmp_path):
+    from tests.experiments.test_sb3_zoo import package_entry
+
+    path = tmp_path / "mountaincar.yaml"
+    zoo = {"agent.sb3_hyperparams": "zoo"}
+    methods = [
+        {"label": f"SB3-{algo.upper()}-zoo", "algo": f"sb3-{algo}", "overrides": zoo}
+        for algo in ("ddpg", "sac", "td3")
+    ]
+    vector_grid(path, MOUNTAIN_CAR, methods)
+    outcome = run_grid(path, tmp_path / "out")
+    assert sorted(outcome["done"]) == [f"SB3-{a}-zoo/task/seed-0" for a in ("DDPG", "SAC", "TD3")]
+    for algo in ("ddpg", "sac", "td3"):
+        cell = tmp_path / "out" / "vector" / f"SB3-{algo.upper()}-zoo" / "task" / "seed-0"
+        summary = json.loads((cell / "summary.json").read_text())
+        assert summary["algo"] == f"sb3-{algo}" and summary["env"] == MOUNTAIN_CAR
+        assert 300 <= summary["steps"] < 400 and summary["episodes"] >= 3 and not summary["stopped"]
+        assert yaml.safe_load((cell / "config.yaml").read_text())["agent"]["sb3_hyperparams"] == "zoo"
+        record = json.loads((cell / "sb3_hyperparams.json").read_text())
+        entry = package_entry(algo, MOUNTAIN_CAR)
+        assert record["setting"] == "zoo" and record["zoo_entry"] == entry
+        assert record["zoo_unused"] == {"n_timesteps": entry["n_timesteps"]}
+        assert record["used"]["learning_rate"] == pytest.approx(entry["learning_rate"])
+        assert any(r["losses/critic"] != "" for r in rows(cell))  # it trained
+    noise = json.loads((tmp_path / "out/vector/SB3-DDPG-zoo/task/seed-0/sb3_hyperparams.json").read_text())
+    assert noise["used"]["action_noise"]["class"] == "OrnsteinUhlenbeckActionNoise"
+    assert noise["used"]["action_noise"]["sigma"] == [0.5]
+    sac = json.loads((tmp_path / "out/vector/SB3-SAC-zoo/task/seed-0/sb3_hyperparams.json").read_text())
+    assert sac["used"]["use_sde"] is True and sac["used"]["train_freq"] == [32, "step"]
+    report = build_report(tmp_path / "out" / "vector", reps=50)
+    assert set(report["methods"]) == {"SB3-DDPG-zoo", "SB3-SAC-zoo", "SB3-TD3-zoo"}
+
+
+@pytest.mark.timeout(1800)
+def test_experiment_run_trains_the_sb3_peers_on_pendulum_with_mlp_policies(tmp_path):
+    path = tmp_path / "pendulum.yaml"
+    methods = [{"label": f"SB3-{algo.upper()}", "algo": f"sb3-{algo}"} for algo in ("ddpg", "sac", "td3")]
+    methods.append({"label": "SB3-SAC-zoo", "algo": "sb3-sac", "overrides": {"agent.sb3_hyperparams": "zoo"}})
+    vector_grid(
+        path,
+        "Pendulum-v1",
+        methods,
+        overrides={"agent.learning_starts": 100, "agent.batch_size": 32, "agent.buffer_size": 1000},
+    )
+    outcome = run_grid(path, tmp_path / "out")
+    assert len(outcome["done"]) == 4
+    for method in methods:
+        cell = tmp_path / "out" / "vector" / method["label"] / "task" / "seed-0"
+        summary = json.loads((cell / "summary.json").read_text())
+        assert summary["steps"] == 300 and summary["episodes"] == 3 and summary["env"] == "Pendulum-v1"
+        record = json.loads((cell / "sb3_hyperparams.json").read_text())
+        assert record["policy"] == "MlpPolicy"
+        if method["label"].endswith("zoo"):
+            assert record["setting"] == "zoo" and record["used"]["batch_size"] == 256  # the zoo's (SB3's)
+        else:
+            assert record["setting"] == "dualsys" and record["used"]["batch_size"] == 32  # ours
+            assert record["used"]["learning_starts"] == 100 and record["non_defaults"] == NON_DEFAULTS
+        assert any(r["losses/critic"] != "" for r in rows(cell))
+
+
+@pytest.mark.parametrize("algo", ["sac", "td3", "ddpg"])
+def test_the_dualsys_setting_differs_from_sb3_defaults_exactly_by_non_defaults(algo):
+    from stable_baselines3.common.noise import NormalActionNoise
+
+    from core.runs.trainer import make_env
+
+    for env_id, policy in ((MOUNTAIN_CAR, "MlpPolicy"), ("dualsys/NicoGrasp-v0", "CnnPolicy")):
+        config = load_config("default", [f"env.id={env_id}"])
+        adapted = make_env(config)
+        adapted.env.close()
+        settings = sb3_settings(config, algo, adapted.spec)
+        assert settings.name == "dualsys" and settings.policy == policy
+        given = set(settings.kwargs)
+        if policy == "CnnPolicy":
+            assert settings.kwargs["policy_kwargs"]["features_extractor_class"] is DualsysEncoderExtractor
+            given = given - {"policy_kwargs"} | {"policy_kwargs.features_extractor_class (images)"}
+        if algo in ("td3", "ddpg"):
+            assert isinstance(settings.kwargs["action_noise"], NormalActionNoise)
+            given = given - {"action_noise"} | {"action_noise (td3, ddpg)"}
+        # every argument we give is a documented non-default (seed and device are given by make_model)
+        assert given <= set(NON_DEFAULTS) and set(NON_DEFAULTS) - given <= {
+            "seed",
+            "device",
+            "policy_kwargs.features_extractor_class (images)",
+            "action_noise (td3, ddpg)",
+        }
+
+
+def test_a_vector_zoo_cell_stopped_inside_a_rollout_resumes_to_the_uninterrupted_episodes(tmp_path):
+    """SAC's zoo entry for MountainCarContinuous-v0 updates every 32 steps with gSDE noise: 50-step episodes
+    end inside rollouts, where checkpoints, stops and resumes must not move an update or a noise sample."""
+    from stable_baselines3 import SAC
+
+    data = {
+        "name": "resume",
+        "env": MOUNTAIN_CAR,
+        "env_kwargs": {"max_episode_steps": 50},
+        "seeds": 1,
+        "steps": 250,
+        "eval_every": 2,
+        "eval_episodes": 1,
+        "overrides": {"agent.sb3_hyperparams": "zoo", "env.success": "terminated"},
+        "methods": [{"label": "SB3-SAC-zoo", "algo": "sb3-sac"}],
+    }
+    (cell,) = expand_cells(load_experiment(data), tmp_path / "stopped")
+
+    def with_checkpoints_every(episodes: int) -> Config:
+        return Config.from_dict({**cell.config, "run": {**cell.config["run"], "checkpoint_every": episodes}})
+
+    def episodes(run_dir) -> list[tuple]:
+        pairs = zip(returns(run_dir), rows(run_dir), strict=True)
+        return [(*episode, row["losses/critic"]) for episode, row in pairs]
+
+    train_sb3(with_checkpoints_every(1000), tmp_path / "straight", algo="sac", command="test")
+    reference = episodes(tmp_path / "straight")
+    assert len(reference) == 5 and all(int(r["charts/length"]) == 50 for r in rows(tmp_path / "straight"))
+    assert any(r["losses/critic"] != "" for r in rows(tmp_path / "straight"))
+    # a checkpoint after every episode leaves learn() inside the rollout and goes on: the same episodes
+    train_sb3(with_checkpoints_every(1), tmp_path / "every", algo="sac", command="test")
+    assert episodes(tmp_path / "every") == reference
+    # the cell, stopped after episode 3 (step 150: inside the fifth 32-step rollout), then run again
+    seen: list[int] = []
+    summary = run_cell(
+        cell, on_episode=lambda record: seen.append(record["episode"]), should_stop=lambda: len(seen) >= 3
+    )
+    assert summary["stopped"] is True and summary["episodes"] == 3
+    assert cell_state(cell.run_dir) == "partial"
+    latest = load_checkpoint(cell.run_dir / "checkpoints" / "latest.pt")
+    assert latest["sb3"]["rollout"] == {"steps": 150 % 32, "episodes": 1}
+    assert set(latest["sb3"]["sde"]) == {"exploration_mat", "exploration_matrices"}
+    summary = run_cell(cell)
+    assert summary["stopped"] is False and cell_state(cell.run_dir) == "done"
+    assert episodes(cell.run_dir) == reference
+    # the zoo's schedules see our budget: SB3's progress_remaining = 1 - num_timesteps / run.steps
+    latest = load_checkpoint(cell.run_dir / "checkpoints" / "latest.pt")
+    model = SAC.load(cell.run_dir / "checkpoints" / latest["sb3"]["model"], device="cpu")
+    assert model._current_progress_remaining == pytest.approx(1 - 250 / cell.config["run"]["steps"])

@@ -97,6 +97,7 @@ def test_shipped_mountaincar_grid_and_a_task_without_levels_round_trips(tmp_path
         ("DDPG", "ddpg"),
         ("DDPG+IM2C", "im2c"),
         ("DDPG+I2A", "i2a"),
+        ("DDPG+RND", "rnd"),
         ("SB3-DDPG-zoo", "sb3-ddpg"),
         ("SB3-SAC-zoo", "sb3-sac"),
     ]

@@ -63,6 +63,8 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         summary="Queue training, alignment, evaluation and export jobs; a registry of versioned policies.",
         version="0.1.0",
         lifespan=lifespan,
+        # operation ids are the route functions' names (`get_job`), which the OpenAPI links name
+        generate_unique_id_function=lambda route: route.name,
     )
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_request_bytes)
     install_error_handlers(app)

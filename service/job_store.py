@@ -93,16 +93,27 @@ def get_job(database: Database, *, job_id: int) -> Job:
 
 
 def list_jobs(
-    database: Database, *, status: str | None, kind: str | None, offset: int, limit: int
+    database: Database,
+    *,
+    status: str | None,
+    kind: str | None,
+    offset: int,
+    limit: int,
+    experiment_id: int | None = None,
 ) -> tuple[list[Any], int]:
     """A page of jobs (Core row objects with Job's attribute names), newest first, and the count,
     read in one transaction on one Core connection (the hot path of `GET /jobs`)."""
     query = select(*Job.__table__.columns)
     counter = select(func.count()).select_from(Job)
+    conditions = []
     if status is not None:
-        query, counter = query.where(Job.status == status), counter.where(Job.status == status)
+        conditions.append(Job.status == status)
     if kind is not None:
-        query, counter = query.where(Job.kind == kind), counter.where(Job.kind == kind)
+        conditions.append(Job.kind == kind)
+    if experiment_id is not None:
+        conditions.append(Job.experiment_id == experiment_id)
+    if conditions:
+        query, counter = query.where(*conditions), counter.where(*conditions)
     with database.read_connection() as connection:
         rows = list(connection.execute(query.order_by(Job.id.desc()).offset(offset).limit(limit)))
         return rows, int(connection.scalar(counter) or 0)

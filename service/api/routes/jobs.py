@@ -7,10 +7,11 @@ from typing import Annotated
 from fastapi import APIRouter, Header, HTTPException, Path, Query, Request, Response, status
 from fastapi.responses import FileResponse, StreamingResponse
 
-from registry.artifact_store import ArtifactStore
+from registry.artifact_store import ARTIFACT_NAME, ArtifactStore
 from service import job_store
 from service.api.deps import MutationAuth, StateDep
 from service.api.events import job_events, parse_last_event_id
+from service.api.links import link, linked
 from service.api.presenters import artifact_public, job_public, json_response, metric_public
 from service.job_kinds import job_kind
 from service.schemas.errors import ErrorPublic
@@ -23,10 +24,29 @@ from service.schemas.jobs import (
     JobStatus,
     MetricsPublic,
 )
+from service.schemas.json_schema import MAX_SAFE_INTEGER
 
 router = APIRouter(prefix="/jobs", tags=["jobs"])
-JobId = Annotated[int, Path(ge=1, le=2**63 - 1, description="Job id.")]
+JobId = Annotated[int, Path(ge=1, le=MAX_SAFE_INTEGER, description="Job id.")]
+ArtifactName = Annotated[
+    str, Path(pattern=ARTIFACT_NAME.pattern, description="A file of the run directory, e.g. metrics.csv.")
+]
+
+
+def _job_links(expression: str) -> dict[str, dict]:
+    """What can be done with the job whose id is at `expression`."""
+    return {
+        "GetJob": link("get_job", "The job.", job_id=expression),
+        "CancelJob": link("cancel_job", "Cancel it.", job_id=expression),
+        "DeleteJob": link("delete_job", "Delete it once finished.", job_id=expression),
+        "JobMetrics": link("job_metrics", "Its episode records.", job_id=expression),
+        "JobArtifacts": link("job_artifacts", "Its files.", job_id=expression),
+    }
+
+
+CREATED_LINKS = _job_links("$response.body#/id")
 ERRORS = {
+    400: {"model": ErrorPublic, "description": "A body that cannot be read as JSON (not UTF-8)."},
     401: {"model": ErrorPublic},
     404: {"model": ErrorPublic},
     409: {"model": ErrorPublic},
@@ -40,7 +60,11 @@ ERRORS = {
     status_code=status.HTTP_202_ACCEPTED,
     response_model=JobPublic,
     dependencies=[MutationAuth],
-    responses={**ERRORS, 200: {"model": JobPublic, "description": "Replay of an Idempotency-Key"}},
+    responses={
+        **ERRORS,
+        **linked(202, "Queued; a worker process runs it.", **CREATED_LINKS),
+        200: {"model": JobPublic, "description": "Replay of an Idempotency-Key", "links": CREATED_LINKS},
+    },
 )
 def submit_job(
     body: JobCreate,
@@ -67,17 +91,29 @@ def submit_job(
     )
 
 
-@router.get("", response_model=JobsPublic, responses=ERRORS)
+@router.get(
+    "",
+    response_model=JobsPublic,
+    responses={**ERRORS, **linked(200, "A page of jobs.", **_job_links("$response.body#/data/0/id"))},
+)
 def list_jobs(
     state: StateDep,
     status_filter: Annotated[JobStatus | None, Query(alias="status")] = None,
     kind: JobKindName | None = None,
     offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
+    experiment_id: Annotated[
+        int | None, Query(ge=1, le=MAX_SAFE_INTEGER, description="Only the cells of this experiment.")
+    ] = None,
 ) -> Response:
-    """Jobs, newest first, filtered by status and kind, paged with offset/limit."""
+    """Jobs, newest first, filtered by status, kind and experiment, paged with offset/limit."""
     rows, count = job_store.list_jobs(
-        state.database, status=status_filter, kind=kind, offset=offset, limit=limit
+        state.database,
+        status=status_filter,
+        kind=kind,
+        offset=offset,
+        limit=limit,
+        experiment_id=experiment_id,
     )
     return json_response(JobsPublic(data=[job_public(j) for j in rows], count=count))
 
@@ -147,7 +183,23 @@ async def job_event_stream(
     )
 
 
-@router.get("/{job_id}/artifacts", response_model=ArtifactsPublic, responses=ERRORS)
+@router.get(
+    "/{job_id}/artifacts",
+    response_model=ArtifactsPublic,
+    responses={
+        **ERRORS,
+        **linked(
+            200,
+            "The job's files.",
+            DownloadArtifact=link(
+                "download_job_artifact",
+                "Download the first file.",
+                job_id="$request.path.job_id",
+                name="$response.body#/data/0/name",
+            ),
+        ),
+    },
+)
 def job_artifacts(job_id: JobId, state: StateDep) -> ArtifactsPublic:
     """Files recorded for the job: checkpoints as they are written, every file once it ends."""
     rows = job_store.list_artifacts(state.database, job_id=job_id)
@@ -159,7 +211,7 @@ def job_artifacts(job_id: JobId, state: StateDep) -> ArtifactsPublic:
     response_class=FileResponse,
     responses={**ERRORS, 400: {"model": ErrorPublic}, 200: {"content": {"application/octet-stream": {}}}},
 )
-def download_job_artifact(job_id: JobId, name: str, state: StateDep) -> FileResponse:
+def download_job_artifact(job_id: JobId, name: ArtifactName, state: StateDep) -> FileResponse:
     """Download one file of the job's run directory; paths cannot leave it."""
     job = job_store.get_job(state.database, job_id=job_id)
     store = state.registry.store

@@ -255,7 +255,7 @@
     document.getElementById("cancel-button").addEventListener("click", async function () {
       const out = document.getElementById("cancel-result");
       out.textContent = "…";
-      const result = await window.dualsys.api("DELETE", "/experiments/" + id);
+      const result = await window.dualsys.api("POST", "/experiments/" + id + "/cancel");
       window.dualsys.showResult(out, result, "cancel requested: unfinished cells stop");
       if (result.ok) refresh();
     });

@@ -18,6 +18,7 @@
   const query = new URLSearchParams();
   if (live.dataset.status) query.set("status", live.dataset.status);
   if (live.dataset.kind) query.set("kind", live.dataset.kind);
+  if (live.dataset.experiment) query.set("experiment_id", live.dataset.experiment);
   query.set("page", live.dataset.page || "1");
   const url = "/ui/jobs/rows?" + query.toString();
   let last = null;

@@ -92,6 +92,14 @@ def get_job(database: Database, *, job_id: int) -> Job:
         return job
 
 
+def get_jobs(database: Database, *, job_ids: list[int]) -> list[Job]:
+    """The jobs with these ids that exist (any order)."""
+    if not job_ids:
+        return []
+    with database.read() as session:
+        return list(session.scalars(select(Job).where(Job.id.in_(job_ids))))
+
+
 def list_jobs(
     database: Database,
     *,
@@ -228,6 +236,47 @@ def list_metrics(database: Database, *, job_id: int, since: int, limit: int) -> 
                 .limit(limit)
             )
         )
+
+
+@dataclass(frozen=True)
+class MetricSeries:
+    """A job's episode records thinned for drawing: `rows` in episode order, out of `episodes` recorded,
+    keeping every `stride`-th episode plus the first, the last and every greedy evaluation."""
+
+    rows: list[JobMetric]
+    episodes: int
+    stride: int
+
+
+EVALUATION_KEY = "eval/success_rate"
+"""A record with this key holds a greedy evaluation (the trainer writes NaN, stored as null, elsewhere)."""
+
+
+def metric_series(database: Database, *, job_id: int, points: int) -> MetricSeries:
+    """About `points` records of a job, whatever its length: all of them up to `points`; beyond, every
+    `stride`-th episode (stride = ceil(span / points)), the first and the last episode, and every record
+    with a greedy evaluation (`EVALUATION_KEY`), so a drawn curve keeps its ends and each evaluation.
+    The selection runs in the database (one indexed range scan; the evaluation test is a JSON lookup)."""
+    with database.read() as session:
+        if session.get(Job, job_id) is None:
+            raise JobNotFound(f"no job with id {job_id}")
+        count, first, last = session.execute(
+            select(func.count(), func.min(JobMetric.episode), func.max(JobMetric.episode)).where(
+                JobMetric.job_id == job_id
+            )
+        ).one()
+        query = select(JobMetric).where(JobMetric.job_id == job_id).order_by(JobMetric.episode)
+        stride = 1
+        if count > points:
+            stride = -(-(last - first + 1) // points)
+            query = query.where(
+                or_(
+                    JobMetric.episode % stride == 0,
+                    JobMetric.episode.in_((first, last)),
+                    JobMetric.data[EVALUATION_KEY].as_float().is_not(None),
+                )
+            )
+        return MetricSeries(rows=list(session.scalars(query)), episodes=int(count), stride=stride)
 
 
 def list_artifacts(database: Database, *, job_id: int) -> list[JobArtifact]:

@@ -114,6 +114,17 @@ class MetricsPublic(BaseModel):
     count: int
 
 
+class MetricSeriesPublic(BaseModel):
+    """A job's episode records thinned for drawing (`GET /jobs/{id}/series`)."""
+
+    data: list[MetricPublic] = Field(
+        description="Every `stride`-th episode, the first and the last, and every greedy evaluation."
+    )
+    count: int = Field(description="Records in `data`.")
+    episodes: int = Field(description="Records the job has (all of them: `GET /jobs/{id}/metrics`).")
+    stride: int = Field(description="1 when `data` holds every record.")
+
+
 class ArtifactPublic(BaseModel):
     name: str = Field(description="Path inside the job's run directory, e.g. checkpoints/best.pt.")
     kind: str

@@ -28,6 +28,7 @@ from service import job_store
 from service.api.deps import StateDep
 from service.errors import JobNotFound
 from service.models import JOB_STATUSES, Job
+from service.schemas.config_overrides import algo_names
 from service.schemas.jobs import JobKindName
 from service.schemas.json_schema import MAX_SAFE_INTEGER
 from service.ui.rendering import environment, render
@@ -113,7 +114,14 @@ def jobs_page(
     if kind is not None and kind not in JOB_KINDS:
         return _not_found(started, f"unknown kind {kind!r}")
     context = _jobs_context(state, status, kind, page, experiment_id)
-    return _page("jobs.html", started, title="Jobs", nav="jobs", **context)
+    return _page("jobs.html", started, title="Jobs", nav="jobs", train_choices=_train_choices(), **context)
+
+
+def _train_choices() -> dict[str, list[str]]:
+    """The submit form's choices: the methods and profiles a train spec accepts."""
+    from core.config import PROFILES
+
+    return {"algos": list(algo_names()), "profiles": sorted(PROFILES)}
 
 
 @router.get("/jobs/rows", response_class=HTMLResponse)
@@ -168,6 +176,56 @@ def job_page(job_id: Annotated[int, Path(ge=1, le=MAX_SAFE_INTEGER)], state: Sta
             "total": job.progress_total,
             "diagnostics": diagnostic_groups(),
         },
+    )
+
+
+MAX_COMPARED = 20
+"""Jobs one compare page overlays (each curve is a request for the job's thinned series)."""
+
+
+@router.get("/compare", response_class=HTMLResponse)
+def compare_page(
+    state: StateDep,
+    jobs: Annotated[str, Query(max_length=400, description="Comma-separated job ids.")] = "",
+) -> HTMLResponse:
+    """Several jobs' learning curves overlaid on env steps, with a smoothing control (the page's script
+    reads each job's thinned series)."""
+    started = time.perf_counter()
+    ids: list[int] = []
+    for part in jobs.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        if not part.isdigit() or not 1 <= int(part) <= MAX_SAFE_INTEGER:
+            return _not_found(started, f"not a job id: {part!r}")
+        if int(part) not in ids:
+            ids.append(int(part))
+    if len(ids) > MAX_COMPARED:
+        return _not_found(started, f"at most {MAX_COMPARED} jobs can be compared at once")
+    rows = job_store.get_jobs(state.database, job_ids=ids)
+    found = {job.id: job for job in rows}
+    now = datetime.now(UTC)
+    compared = []
+    for job_id in ids:
+        job = found.get(job_id)
+        if job is None:
+            compared.append({"id": job_id, "label": f"job {job_id} (not found)", "missing": True})
+            continue
+        row = job_row(job, None, now)
+        parts = [f"job {job_id}", row["method"] or job.kind]
+        if job.cell:
+            parts.append(job.cell)
+        else:
+            seed = f"seed {row['seed']}" if row["seed"] is not None else None
+            parts += [p for p in (row["reward"], seed) if p]
+        compared.append({"id": job_id, "label": " · ".join(parts), "status": job.status, "missing": False})
+    return _page(
+        "compare.html",
+        started,
+        title="Compare runs",
+        nav="jobs",
+        compared=compared,
+        page_data={"jobs": [c for c in compared if not c["missing"]]},
     )
 
 

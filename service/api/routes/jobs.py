@@ -22,6 +22,7 @@ from service.schemas.jobs import (
     JobPublic,
     JobsPublic,
     JobStatus,
+    MetricSeriesPublic,
     MetricsPublic,
 )
 from service.schemas.json_schema import MAX_SAFE_INTEGER
@@ -40,6 +41,7 @@ def _job_links(expression: str) -> dict[str, dict]:
         "CancelJob": link("cancel_job", "Cancel it.", job_id=expression),
         "DeleteJob": link("delete_job", "Delete it once finished.", job_id=expression),
         "JobMetrics": link("job_metrics", "Its episode records.", job_id=expression),
+        "JobSeries": link("job_series", "Its records thinned for drawing.", job_id=expression),
         "JobArtifacts": link("job_artifacts", "Its files.", job_id=expression),
     }
 
@@ -158,6 +160,27 @@ def job_metrics(
 ) -> MetricsPublic:
     rows = job_store.list_metrics(state.database, job_id=job_id, since=since, limit=limit)
     return MetricsPublic(data=[metric_public(r) for r in rows], count=len(rows))
+
+
+@router.get("/{job_id}/series", response_model=MetricSeriesPublic, responses=ERRORS)
+def job_series(
+    job_id: JobId,
+    state: StateDep,
+    points: Annotated[
+        int, Query(ge=10, le=100_000, description="About how many records to return, besides evaluations.")
+    ] = 1000,
+) -> Response:
+    """The job's episode records thinned for drawing: every k-th episode, the first and the last, and
+    every greedy evaluation; all of them when there are at most `points`."""
+    series = job_store.metric_series(state.database, job_id=job_id, points=points)
+    return json_response(
+        MetricSeriesPublic(
+            data=[metric_public(r) for r in series.rows],
+            count=len(series.rows),
+            episodes=series.episodes,
+            stride=series.stride,
+        )
+    )
 
 
 @router.get(

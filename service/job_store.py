@@ -15,9 +15,10 @@ from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import ColumnElement, delete, func, or_, select, update
+from sqlalchemy import ColumnElement, String, cast, delete, func, literal, or_, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, aliased
+from sqlalchemy.orm.attributes import set_committed_value
 
 from registry.database import Database
 from registry.models import utc_now
@@ -40,9 +41,12 @@ class ClaimedJob:
     run_dir: str
 
 
+JOBS_AREA = "jobs"
+
+
 def job_run_dir(job_id: int) -> str:
     """The run directory of a job, relative to the artifact root."""
-    return f"jobs/{job_id}"
+    return f"{JOBS_AREA}/{job_id}"
 
 
 def create_job(
@@ -84,6 +88,35 @@ def create_job(
         return existing, False
 
 
+def create_jobs(database: Database, items: list[dict[str, Any]]) -> list[Job]:
+    """Insert queued jobs (`kind`, `spec`, `resolved`, `progress_total` each) in one write transaction,
+    in order; their rows. The batch path of `POST /jobs` (service/job_inserter.py)."""
+    with database.write() as session:
+        jobs = [
+            Job(
+                kind=item["kind"],
+                spec=item["spec"],
+                resolved=item["resolved"],
+                status="queued",
+                progress_total=item["progress_total"],
+            )
+            for item in items
+        ]
+        session.add_all(jobs)
+        session.flush()
+        # one UPDATE for the batch (not one per row: a round trip each on PostgreSQL)
+        ids = [job.id for job in jobs]
+        session.execute(
+            update(Job)
+            .where(Job.id.in_(ids))
+            .values(run_dir=literal(f"{JOBS_AREA}/") + cast(Job.id, String))
+            .execution_options(synchronize_session=False)
+        )
+        for job in jobs:
+            set_committed_value(job, "run_dir", job_run_dir(job.id))
+    return jobs
+
+
 def get_job(database: Database, *, job_id: int) -> Job:
     with database.read() as session:
         job = session.get(Job, job_id)
@@ -109,10 +142,10 @@ def list_jobs(
     limit: int,
     experiment_id: int | None = None,
 ) -> tuple[list[Any], int]:
-    """A page of jobs (Core row objects with Job's attribute names), newest first, and the count,
-    read in one transaction on one Core connection (the hot path of `GET /jobs`)."""
-    query = select(*Job.__table__.columns)
-    counter = select(func.count()).select_from(Job)
+    """A page of jobs (Core row objects with Job's attribute names), newest first, and the count of all
+    jobs that match, read by one statement (the count is a scalar subquery evaluated once, so page and
+    count share one snapshot) on an autocommit connection: the hot path of `GET /jobs`, one round trip on
+    PostgreSQL. A page past the end has no row to carry the count: a second query counts."""
     conditions = []
     if status is not None:
         conditions.append(Job.status == status)
@@ -120,10 +153,18 @@ def list_jobs(
         conditions.append(Job.kind == kind)
     if experiment_id is not None:
         conditions.append(Job.experiment_id == experiment_id)
-    if conditions:
-        query, counter = query.where(*conditions), counter.where(*conditions)
-    with database.read_connection() as connection:
-        rows = list(connection.execute(query.order_by(Job.id.desc()).offset(offset).limit(limit)))
+    counter = select(func.count()).select_from(Job).where(*conditions)
+    query = (
+        select(*Job.__table__.columns, counter.scalar_subquery().label("matching"))
+        .where(*conditions)
+        .order_by(Job.id.desc())
+        .offset(offset)
+        .limit(limit)
+    )
+    with database.autocommit_read() as connection:
+        rows = list(connection.execute(query))
+        if rows:
+            return rows, int(rows[0].matching)
         return rows, int(connection.scalar(counter) or 0)
 
 

@@ -1,11 +1,23 @@
-"""`/jobs`: submit, list, show, cancel, delete, metrics, events, artifacts."""
+"""`/jobs`: submit, list, show, cancel, delete, metrics, events, artifacts.
+
+The hot endpoints are `async`. `GET /jobs` and `GET /jobs/{id}` read through `ServiceState.query`: on
+the event loop for SQLite (a sub-millisecond indexed query that never waits: WAL readers take no lock),
+sparing the hop to the thread pool and back and the GIL hand-offs between the loop and the pool's
+threads; in the thread pool for PostgreSQL, whose round trips the threads overlap. `POST /jobs`
+validates on the loop and awaits its row from the process's `JobInserter`, which writes the submissions
+of each moment in one transaction (service/job_inserter.py), so the loop never waits for the write lock.
+Work that may take longer (a train spec's config resolution, downloads, metrics pages) stays in the
+thread pool (docs/service.md, Performance).
+"""
 
 from __future__ import annotations
 
+from functools import partial
 from typing import Annotated
 
 from fastapi import APIRouter, Header, HTTPException, Path, Query, Request, Response, status
 from fastapi.responses import FileResponse, StreamingResponse
+from starlette.concurrency import run_in_threadpool
 
 from registry.artifact_store import ARTIFACT_NAME, ArtifactStore
 from service import job_store
@@ -68,22 +80,29 @@ ERRORS = {
         200: {"model": JobPublic, "description": "Replay of an Idempotency-Key", "links": CREATED_LINKS},
     },
 )
-def submit_job(
+async def submit_job(
     body: JobCreate,
     state: StateDep,
     idempotency_key: Annotated[str | None, Header(max_length=128)] = None,
 ) -> Response:
     """Queue a job; answers 202 with its id at once. A worker process does the work."""
     kind = job_kind(body.kind)
-    submission = kind.prepare(body.spec, state.registry)
-    job, created = job_store.create_job(
-        state.database,
-        kind=body.kind,
-        spec=body.spec.model_dump(mode="json"),
-        resolved=submission.resolved,
-        progress_total=submission.progress_total,
-        idempotency_key=idempotency_key,
-    )
+    if kind.quick_prepare:
+        submission = kind.prepare(body.spec, state.registry)
+    else:
+        submission = await run_in_threadpool(kind.prepare, body.spec, state.registry)
+    fields = {
+        "kind": body.kind,
+        "spec": body.spec.model_dump(mode="json"),
+        "resolved": submission.resolved,
+        "progress_total": submission.progress_total,
+    }
+    if idempotency_key is None:  # batched with the other submissions of this moment (group commit)
+        job, created = await state.inserter.insert(**fields), True
+    else:
+        job, created = await run_in_threadpool(
+            partial(job_store.create_job, state.database, idempotency_key=idempotency_key, **fields)
+        )
     if state.supervisor is not None:
         state.supervisor.wake_to_claim()
     return json_response(
@@ -98,7 +117,7 @@ def submit_job(
     response_model=JobsPublic,
     responses={**ERRORS, **linked(200, "A page of jobs.", **_job_links("$response.body#/data/0/id"))},
 )
-def list_jobs(
+async def list_jobs(
     state: StateDep,
     status_filter: Annotated[JobStatus | None, Query(alias="status")] = None,
     kind: JobKindName | None = None,
@@ -109,7 +128,8 @@ def list_jobs(
     ] = None,
 ) -> Response:
     """Jobs, newest first, filtered by status, kind and experiment, paged with offset/limit."""
-    rows, count = job_store.list_jobs(
+    rows, count = await state.query(
+        job_store.list_jobs,
         state.database,
         status=status_filter,
         kind=kind,
@@ -121,8 +141,8 @@ def list_jobs(
 
 
 @router.get("/{job_id}", response_model=JobPublic, responses=ERRORS)
-def get_job(job_id: JobId, state: StateDep) -> Response:
-    return json_response(job_public(job_store.get_job(state.database, job_id=job_id)))
+async def get_job(job_id: JobId, state: StateDep) -> Response:
+    return json_response(job_public(await state.query(job_store.get_job, state.database, job_id=job_id)))
 
 
 @router.post(

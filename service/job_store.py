@@ -88,10 +88,11 @@ def create_job(
         return existing, False
 
 
-def create_jobs(database: Database, items: list[dict[str, Any]]) -> list[Job]:
+def create_jobs(database: Database, items: list[dict[str, Any]], *, lock_held: bool = False) -> list[Job]:
     """Insert queued jobs (`kind`, `spec`, `resolved`, `progress_total` each) in one write transaction,
-    in order; their rows. The batch path of `POST /jobs` (service/job_inserter.py)."""
-    with database.write() as session:
+    in order; their rows. The batch path of `POST /jobs` (service/job_inserter.py); `lock_held`: the
+    caller holds the database's write lock."""
+    with database.write(lock_held=lock_held) as session:
         jobs = [
             Job(
                 kind=item["kind"],

@@ -23,6 +23,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import math
 import os
 import shutil
 import socket
@@ -88,7 +89,8 @@ def _service_pids(root: int) -> list[int]:
 
 
 def _service_cpu_s(pids: list[int]) -> float:
-    return sum(_process_cpu_s(pid) for pid in pids)
+    """CPU seconds of the processes still alive (a PostgreSQL backend that ended takes its share along)."""
+    return sum(cpu for cpu in (_process_cpu_s(pid) for pid in pids) if math.isfinite(cpu))
 
 
 def _postgres_pids(port: int) -> list[int]:
@@ -107,7 +109,8 @@ def _postgres_pids(port: int) -> list[int]:
 
 def _profile(pids: list[int], seconds: float, folder: Path, label: str) -> list[subprocess.Popen[bytes]]:
     """py-spy record of each process for `seconds` (raw collapsed stacks), non-blocking (it samples without
-    stopping the process); one file per process under `folder`."""
+    stopping the process), only samples whose thread holds the GIL (the CPU a process spends in Python,
+    not its idle threads); one file per process under `folder`."""
     spy = shutil.which("py-spy", path=str(Path(sys.executable).parent)) or shutil.which("py-spy")
     if spy is None:
         raise RuntimeError("py-spy is not installed (pip install 'dualsys[bench]')")
@@ -115,8 +118,9 @@ def _profile(pids: list[int], seconds: float, folder: Path, label: str) -> list[
     return [
         subprocess.Popen(
             [
-                spy, "record", "--pid", str(pid), "--duration", str(max(1, round(seconds))), "--rate", "250",
-                "--nonblocking", "--gil", "--format", "raw", "--output", str(folder / f"{label}-pid{pid}.txt"),
+                spy, "record", "--pid", str(pid), "--duration", str(max(1, round(seconds))),
+                "--rate", "250", "--nonblocking", "--gil", "--format", "raw",
+                "--output", str(folder / f"{label}-pid{pid}.txt"),
             ],
             stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL,

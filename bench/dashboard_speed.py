@@ -1,6 +1,7 @@
 """Weight and speed of the web dashboard: the jobs page of a service holding 1 000 jobs (goal: rendered
-server-side in < 100 ms, p50 of 20 loads; the whole first load < 500 kB). Prints JSON figures; never
-asserts.
+server-side in < 100 ms, p50 of 20 loads; the whole first load < 500 kB), and the page of a 100 000-episode
+run (goal: first load ≤ 1 MB: the page draws a thinned series, every episode only on demand). Prints JSON
+figures; never asserts.
 
 The database is a real SQLite file filled through the job store: 1 000 jobs, mostly `train` jobs
 carrying a real resolved config (what `POST /jobs` stores), across every status; five are running
@@ -36,6 +37,8 @@ PROJECT_ROOT = Path(__file__).resolve().parents[1]
 JOBS = 1000
 RUNNING = 5
 EPISODES = 1000
+LONG_EPISODES = 100_000
+"""Episodes of the long run whose page is weighed (a greedy evaluation every 1 000)."""
 LOADS = 20
 ASSET = re.compile(r'(?:src|href)="(/ui/static/[^"]+)"')
 
@@ -143,6 +146,56 @@ def fill_database(url: str) -> int:
     return running[0]
 
 
+def _episode_record(episode: int, evaluate_every: int) -> dict[str, Any]:
+    data: dict[str, Any] = {
+        "charts/episodic_return": math.sin(episode / 50),
+        "charts/success": float(episode % 3 == 0),
+        "charts/length": 24,
+        "losses/critic": 0.1,
+        "dual/model_error": 0.05,
+        "dual/mb_decisions": 3.0,
+        "dual/mf_decisions": 21.0,
+        "dual/horizon": 2.5,
+        "dual/itm_nodes": 40.0,
+    }
+    if episode % evaluate_every == 0:
+        data["eval/success_rate"] = 0.5
+    return data
+
+
+def add_long_run(url: str, episodes: int = LONG_EPISODES) -> int:
+    """A finished train job with `episodes` recorded episodes; its id."""
+    from registry.database import Database
+    from service import job_store
+    from service.models import Job, JobMetric
+
+    database = Database(url)
+    try:
+        job, _ = job_store.create_job(
+            database, kind="probe", spec={"episodes": episodes}, resolved={}, progress_total=episodes
+        )
+        with database.write() as session:
+            session.execute(
+                update(Job).where(Job.id == job.id).values(status="succeeded", progress_episode=episodes)
+            )
+        for start in range(1, episodes + 1, 20_000):
+            rows = [
+                {
+                    "job_id": job.id,
+                    "episode": e,
+                    "global_step": 24 * e,
+                    "attempt": 1,
+                    "data": _episode_record(e, 1000),
+                }
+                for e in range(start, min(episodes, start + 19_999) + 1)
+            ]
+            with database.write() as session:
+                session.execute(insert(JobMetric), rows)
+        return job.id
+    finally:
+        database.dispose()
+
+
 def _first_load(client: httpx.Client, path: str, follow_ups: list[str]) -> dict[str, Any]:
     page = client.get(path)
     parts = {path: _wire_bytes(page)}
@@ -174,6 +227,7 @@ def measure(loads: int = LOADS) -> dict[str, Any]:
     url = f"sqlite:///{folder / 'bench.db'}"
     filled = time.perf_counter()
     running_job = fill_database(url)
+    long_job = add_long_run(url)
     filled = time.perf_counter() - filled
     port = _free_port()
     environment = {k: v for k, v in os.environ.items() if not k.startswith("DUALSYS_")}
@@ -206,8 +260,21 @@ def measure(loads: int = LOADS) -> dict[str, Any]:
             deep = _timed(client, "/ui?status=succeeded&page=4", loads)
             rows = _timed(client, "/ui/jobs/rows?page=1", loads)
             job_path = f"/ui/jobs/{running_job}"
-            job_load = _first_load(client, job_path, [f"/jobs/{running_job}/metrics?since=0&limit=5000"])
+            # what job.js asks for first: the thinned series (all 1 000 records of this job)
+            job_load = _first_load(client, job_path, [f"/jobs/{running_job}/series?points=1000"])
             job_page = _timed(client, job_path, loads)
+            long_path = f"/ui/jobs/{long_job}"
+            long_series = f"/jobs/{long_job}/series?points=1000"
+            long_load = _first_load(client, long_path, [long_series])
+            series_times = []
+            for _ in range(max(3, loads // 4)):
+                started = time.perf_counter()
+                client.get(long_series).raise_for_status()
+                series_times.append(1000 * (time.perf_counter() - started))
+            full_bytes = sum(
+                _wire_bytes(client.get(f"/jobs/{long_job}/metrics?since={since}&limit=10000"))
+                for since in range(0, LONG_EPISODES, 10_000)
+            )
             count = len(re.findall(r"<tr data-job-id=", cold.text))
         return {
             "jobs": JOBS,
@@ -224,6 +291,12 @@ def measure(loads: int = LOADS) -> dict[str, Any]:
             **{f"job_page_{k}": v for k, v in job_page.items()},
             "job_page_first_load_bytes": job_load["bytes"],
             "job_page_metric_rows": EPISODES,
+            "long_run_episodes": LONG_EPISODES,
+            "long_run_page_first_load_bytes": long_load["bytes"],
+            "goal_long_run_first_load_bytes": 1_000_000,
+            "long_run_page_first_load_parts": long_load["parts"],
+            "long_run_series_ms_p50": round(statistics.median(series_times), 1),
+            "long_run_every_episode_bytes": full_bytes,
             "fill_s": round(filled, 1),
             "cpu_count": os.cpu_count(),
             "load_average_1m": round(os.getloadavg()[0], 2),

@@ -1,13 +1,21 @@
 """Latency of the job service under load: p50/p99 of `GET /jobs` (first page, 10 000 jobs in the table)
 and `POST /jobs` from 20 concurrent clients while a training job runs, for 1, 2, ... API processes
-(`dualsys serve --api-processes N`). Goals: p99 < 50 ms with 2 API processes, at least 2x the
-213 requests/s measured with one, at most 2 ms of server CPU per request. Prints JSON; never asserts.
+(`dualsys serve --api-processes N`), on SQLite and on PostgreSQL. Goals: p99 < 50 ms with 2 API
+processes, at least 2x the 213 requests/s measured with one, at most 2 ms of server CPU per request.
+Prints JSON; never asserts.
 
-The service runs as real uvicorn processes on a loopback port with a SQLite file in a temporary
-folder and one worker slot, which the training job holds: the submitted `probe` jobs stay queued,
-so the measurement sees the API and the database while the trainer competes for the CPU. Server CPU
-is that of the service's processes (the parent with the supervisor and every API process), not of
-the job processes.
+The service runs as real uvicorn processes on a loopback port with one worker slot, which the training
+job holds: the submitted `probe` jobs stay queued, so the measurement sees the API and the database
+while the trainer competes for the CPU. The database is a SQLite file in a temporary folder, or a fresh
+database on a throwaway PostgreSQL server (`bench/postgres_server.py`, durability as SQLite's WAL with
+synchronous=NORMAL: fsync on, commits acknowledged before their WAL flush). Server CPU is that of the
+service's processes (the parent with the supervisor and every API process), not of the job processes
+(nor of PostgreSQL's, which `postgres_cpu_ms_per_request` reports).
+
+`repeat` runs each configuration several times, interleaved (sqlite-1, sqlite-2, postgresql-1, ...,
+then again), and `summary` gives the median of each figure over the repeats: the machine is shared, so
+one run says little. `profile_dir` records each service process with py-spy during the load (raw
+collapsed stacks, one file per process), for `bench/profile_summary.py`.
 """
 
 from __future__ import annotations
@@ -15,6 +23,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import math
 import os
 import shutil
 import socket
@@ -80,7 +89,44 @@ def _service_pids(root: int) -> list[int]:
 
 
 def _service_cpu_s(pids: list[int]) -> float:
-    return sum(_process_cpu_s(pid) for pid in pids)
+    """CPU seconds of the processes still alive (a PostgreSQL backend that ended takes its share along)."""
+    return sum(cpu for cpu in (_process_cpu_s(pid) for pid in pids) if math.isfinite(cpu))
+
+
+def _postgres_pids(port: int) -> list[int]:
+    """PostgreSQL's server processes (the postmaster listening on `port` and its children)."""
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            command = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if command and command[0].endswith(b"postgres") and str(port).encode() in command:
+            return _service_pids(int(entry.name))
+    return []
+
+
+def _profile(pids: list[int], seconds: float, folder: Path, label: str) -> list[subprocess.Popen[bytes]]:
+    """py-spy record of each process for `seconds` (raw collapsed stacks), non-blocking (it samples without
+    stopping the process), only samples whose thread holds the GIL (the CPU a process spends in Python,
+    not its idle threads); one file per process under `folder`."""
+    spy = shutil.which("py-spy", path=str(Path(sys.executable).parent)) or shutil.which("py-spy")
+    if spy is None:
+        raise RuntimeError("py-spy is not installed (pip install 'dualsys[bench]')")
+    folder.mkdir(parents=True, exist_ok=True)
+    return [
+        subprocess.Popen(
+            [
+                spy, "record", "--pid", str(pid), "--duration", str(max(1, round(seconds))),
+                "--rate", "250", "--nonblocking", "--gil", "--format", "raw",
+                "--output", str(folder / f"{label}-pid{pid}.txt"),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        for pid in pids
+    ]  # fmt: skip
 
 
 def _summary(latencies: list[float], errors: int) -> dict[str, Any]:
@@ -200,11 +246,22 @@ def _fill_table(database_url: str, template_id: int, count: int) -> None:
         database.dispose()
 
 
-def measure_one(*, seconds: float, clients: int, api_processes: int, jobs_in_table: int) -> dict[str, Any]:
-    """Start a service with `api_processes`, a training job and `jobs_in_table` jobs; load it; stop it."""
+def measure_one(
+    *,
+    seconds: float,
+    clients: int,
+    api_processes: int,
+    jobs_in_table: int,
+    database_url: str | None = None,
+    postgres_port: int | None = None,
+    profile_dir: Path | None = None,
+    label: str = "",
+) -> dict[str, Any]:
+    """Start a service with `api_processes`, a training job and `jobs_in_table` jobs; load it; stop it.
+    `database_url`: a fresh PostgreSQL database (on the server at `postgres_port`); None: a SQLite file."""
     folder = Path(tempfile.mkdtemp(prefix="dualsys-bench-service-"))
     port = _free_port()
-    database_url = f"sqlite:///{folder / 'bench.db'}"
+    database_url = database_url or f"sqlite:///{folder / 'bench.db'}"
     environment = {k: v for k, v in os.environ.items() if not k.startswith("DUALSYS_")}
     environment.update(
         DUALSYS_DATABASE_URL=database_url,
@@ -243,16 +300,24 @@ def measure_one(*, seconds: float, clients: int, api_processes: int, jobs_in_tab
                 client.get("/jobs?limit=20")
             before = client.get(f"/jobs/{job['id']}").json()["progress"]["episode"]
             pids = _service_pids(server.pid)
+            database_pids = _postgres_pids(postgres_port) if postgres_port else []
             server_cpu = _service_cpu_s(pids)
+            database_cpu = _service_cpu_s(database_pids)
             client_cpu = time.process_time()
+            spies = _profile(pids, seconds, profile_dir, label) if profile_dir else []
+            load_before = os.getloadavg()[0]
             results = asyncio.run(_load(url, clients, seconds))
             client_cpu = time.process_time() - client_cpu
             server_cpu = _service_cpu_s(pids) - server_cpu
+            database_cpu = _service_cpu_s(database_pids) - database_cpu
+            for spy in spies:
+                spy.wait(timeout=60)
             after = client.get(f"/jobs/{job['id']}").json()
             count = client.get("/jobs?limit=1").json()["count"]
             client.post(f"/jobs/{job['id']}/cancel")
         requests = sum(figures["requests"] for figures in results.values())
         return {
+            "database": database_url.split(":", 1)[0].split("+", 1)[0],
             "api_processes": api_processes,
             "service_processes": len(pids),
             "jobs_in_table_after": count,
@@ -262,6 +327,12 @@ def measure_one(*, seconds: float, clients: int, api_processes: int, jobs_in_tab
             "requests_per_s": round(requests / seconds, 1),
             "server_cpu_ms_per_request": round(1000 * server_cpu / max(requests, 1), 2),
             "client_cpu_ms_per_request": round(1000 * client_cpu / max(requests, 1), 2),
+            **(
+                {"postgres_cpu_ms_per_request": round(1000 * database_cpu / max(requests, 1), 2)}
+                if postgres_port
+                else {}
+            ),
+            "load_average_1m_before": round(load_before, 2),
             "load_average_1m_after": round(os.getloadavg()[0], 2),
         }
     finally:
@@ -274,18 +345,72 @@ def measure_one(*, seconds: float, clients: int, api_processes: int, jobs_in_tab
         shutil.rmtree(folder, ignore_errors=True)
 
 
+SUMMARY_KEYS = (
+    "GET /jobs p50_ms",
+    "GET /jobs p99_ms",
+    "POST /jobs p50_ms",
+    "POST /jobs p99_ms",
+    "requests_per_s",
+    "server_cpu_ms_per_request",
+    "postgres_cpu_ms_per_request",
+    "load_average_1m_before",
+)
+
+
+def summarise(runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Per (database, API processes): the median of each figure over the repeats, and their range."""
+    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    for run in runs:
+        groups.setdefault((run["database"], run["api_processes"]), []).append(run)
+    summary = []
+    for (database, processes), group in groups.items():
+        row: dict[str, Any] = {"database": database, "api_processes": processes, "repeats": len(group)}
+        for key in SUMMARY_KEYS:
+            values = [run[key] for run in group if isinstance(run.get(key), int | float)]
+            if values:
+                row[f"{key} median"] = round(statistics.median(values), 2)
+                row[f"{key} range"] = [round(min(values), 2), round(max(values), 2)]
+        summary.append(row)
+    return summary
+
+
 def measure(
     seconds: float = 10.0,
     clients: int = 20,
     api_processes: tuple[int, ...] = (1,),
     jobs_in_table: int = 10_000,
+    databases: tuple[str, ...] = ("sqlite",),
+    repeat: int = 1,
+    profile_dir: Path | None = None,
 ) -> dict[str, Any]:
-    """One `measure_one` per API-process count, one after the other, with the goals beside them."""
+    """Every (database, API-process count) `repeat` times, interleaved, with the goals and the medians."""
     load_before = round(os.getloadavg()[0], 2)
-    runs = [
-        measure_one(seconds=seconds, clients=clients, api_processes=n, jobs_in_table=jobs_in_table)
-        for n in api_processes
-    ]
+    postgres = None
+    if "postgresql" in databases:
+        from bench.postgres_server import PostgresServer
+
+        postgres = PostgresServer(durable=True).start()
+    runs = []
+    try:
+        for round_index in range(repeat):
+            for database in databases:
+                for n in api_processes:
+                    url = postgres.create_database() if database == "postgresql" and postgres else None
+                    runs.append(
+                        measure_one(
+                            seconds=seconds,
+                            clients=clients,
+                            api_processes=n,
+                            jobs_in_table=jobs_in_table,
+                            database_url=url,
+                            postgres_port=postgres.port if url and postgres else None,
+                            profile_dir=profile_dir,
+                            label=f"{database}-{n}api-r{round_index + 1}",
+                        )
+                    )
+    finally:
+        if postgres is not None:
+            postgres.stop()
     return {
         "clients": clients,
         "seconds": seconds,
@@ -295,6 +420,7 @@ def measure(
         "goal_server_cpu_ms_per_request": 2.0,
         "cpu_count": os.cpu_count(),
         "load_average_1m_before": load_before,
+        "summary": summarise(runs),
         "runs": runs,
     }
 

@@ -71,6 +71,8 @@ class RunConfig:
     (docs/model-free.md)."""
     smoothing_window: int = 250
     """Sliding window (episodes) of the learning-curve PNG (Fig. 8: 250 dense, 375 sparse)."""
+    tensorboard: bool = False
+    """Also write TensorBoard event files into the run directory, named as metrics.csv's columns."""
 
 
 NICO_GRASP_ID = "dualsys/NicoGrasp-v0"

@@ -111,17 +111,34 @@ def bench_service(
         "1", "--api-processes", help="Comma-separated API-process counts, one service each (e.g. 1,2)."
     ),
     jobs_in_table: int = typer.Option(10_000, min=1, help="Jobs in the table while GET /jobs is timed."),
+    database: str = typer.Option(
+        "sqlite", "--database", help="Comma-separated: sqlite, postgresql (a throwaway local server)."
+    ),
+    repeat: int = typer.Option(1, "--repeat", min=1, max=20, help="Runs of each configuration (medians)."),
+    profile: Path = typer.Option(
+        None, "--profile", help="Folder for py-spy recordings of the service processes during the load."
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
 ) -> None:
-    """p50/p99 of GET and POST /jobs under concurrent clients while a training job runs (goal p99 < 50 ms)."""
+    """p50/p99 of GET and POST /jobs under concurrent clients while a training job runs (goal p99 < 50 ms),
+    on SQLite and/or PostgreSQL, with medians over repeats."""
     from bench.service_speed import measure
 
     with user_errors():
         counts = tuple(int(n) for n in api_processes.split(",") if n.strip()) if api_processes else ()
         if not counts or any(n < 1 or n > 32 for n in counts):
             raise ValueError(f"--api-processes wants counts from 1 to 32 such as 1,2 (got {api_processes!r})")
+        databases = tuple(d.strip() for d in database.split(",") if d.strip())
+        if not databases or any(d not in ("sqlite", "postgresql") for d in databases):
+            raise ValueError(f"--database wants sqlite, postgresql or both (got {database!r})")
         result = measure(
-            seconds=seconds, clients=clients, api_processes=counts, jobs_in_table=jobs_in_table
+            seconds=seconds,
+            clients=clients,
+            api_processes=counts,
+            jobs_in_table=jobs_in_table,
+            databases=databases,
+            repeat=repeat,
+            profile_dir=profile,
         )
     _emit(result, as_json)
 

@@ -39,7 +39,10 @@ def _submit(url: str | None, kind: str, spec: dict[str, Any], as_json: bool) -> 
         )
 
 
-def _overrides(items: list[str] | None) -> dict[str, str]:
+def _overrides(items: list[str] | None) -> dict[str, Any]:
+    """`--set section.key=value` items as the typed values the API takes (`32`, `true`, `[8, 8]`)."""
+    from service.schemas.config_overrides import typed_overrides
+
     overrides = {}
     for item in items or []:
         key, sep, value = item.partition("=")
@@ -47,7 +50,7 @@ def _overrides(items: list[str] | None) -> dict[str, str]:
             with user_errors():
                 raise ValueError(f"--set {item!r} is not of the form section.key=value")
         overrides[key.strip()] = value.strip()
-    return overrides
+    return typed_overrides(overrides)
 
 
 @submit_app.command("train")
@@ -153,26 +156,38 @@ def list_jobs(
     kind: str = typer.Option(None, "--kind", help="train | align | eval | export | probe."),
     limit: int = typer.Option(20, "--limit", min=1, max=500),
     offset: int = typer.Option(0, "--offset", min=0),
+    experiment: int = typer.Option(None, "--experiment", min=1, help="Only the cells of this experiment."),
     url: str = URL,
     as_json: bool = JSON,
 ) -> None:
-    """List jobs, newest first."""
+    """List jobs, newest first (with --experiment ID: that experiment's cells)."""
     with user_errors(), _client(url) as client:
-        page = client.list_jobs(status=status, kind=kind, offset=offset, limit=limit)
+        page = client.list_jobs(
+            status=status, kind=kind, offset=offset, limit=limit, experiment_id=experiment
+        )
     if as_json:
         typer.echo(json.dumps(page))
         return
     from rich.console import Console
     from rich.table import Table
 
-    table = Table("id", "kind", "status", "progress", "attempt", "created", title=f"{page['count']} job(s)")
+    title = f"{page['count']} job(s)" + (f" of experiment {experiment}" if experiment else "")
+    table = Table("id", "kind", "status", "progress", "attempt", "experiment · cell", "created", title=title)
     for job in page["data"]:
         progress = job["progress"]
         shown = (
             f"{progress['episode']}/{progress['total']}" if progress["total"] else str(progress["episode"])
         )
+        cell = job.get("cell")
+        place = f"{job['experiment_id']} · {cell['key']}" if job.get("experiment_id") and cell else ""
         table.add_row(
-            str(job["id"]), job["kind"], job["status"], shown, str(job["attempt"]), job["created_at"][:19]
+            str(job["id"]),
+            job["kind"],
+            job["status"],
+            shown,
+            str(job["attempt"]),
+            place,
+            job["created_at"][:19],
         )
     Console().print(table)
 
@@ -185,7 +200,8 @@ def show_job(job_id: int = typer.Argument(..., min=1), url: str = URL, as_json: 
     if as_json:
         typer.echo(json.dumps(job))
         return
-    for key in ("id", "kind", "status", "reason", "attempt", "progress", "spec", "summary", "created_at"):
+    keys = ("id", "kind", "status", "reason", "attempt", "progress", "experiment_id", "cell", "spec")
+    for key in (*keys, "summary", "created_at"):
         typer.echo(f"{key}: {json.dumps(job[key]) if isinstance(job[key], dict | list) else job[key]}")
 
 

@@ -180,17 +180,24 @@ def train_command(
     config_file: Path = typer.Option(None, "--config", help="YAML/JSON file of config sections."),
     resume: Path = typer.Option(None, "--resume", help="Continue the run in this directory."),
     ac: str = typer.Option(None, "--ac", help="Actor update for dual-system methods: ddpg | cacla."),
+    tensorboard: bool = typer.Option(
+        None,
+        "--tensorboard/--no-tensorboard",
+        help="Write TensorBoard event files into the run directory (run.tensorboard; "
+        "open them with: tensorboard --logdir dualsys-runs).",
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON summary line."),
 ) -> None:
     """Train a policy (the vision-based grasp by default, or any gymnasium task with --env); Ctrl-C leaves a
     resumable checkpoint."""
     from core.runs.trainer import train
 
+    switch = [] if tensorboard is None else [f"run.tensorboard={str(tensorboard).lower()}"]
     with user_errors():
         config = build_config(
             profile=profile,
             config_file=config_file,
-            overrides=list(overrides or []),
+            overrides=[*(overrides or []), *switch],
             resume=resume,
             algo=algo,
             ac=ac,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import uuid
 from dataclasses import dataclass
@@ -19,6 +20,11 @@ from urllib.parse import unquote
 from registry.errors import PathOutsideRoot
 
 CHECKPOINT_SUFFIXES = (".pt", ".pth")
+_SEGMENT = r"[A-Za-z0-9_][A-Za-z0-9_.,+=@-]{0,127}"
+ARTIFACT_NAME = re.compile(rf"^{_SEGMENT}(?:/{_SEGMENT}){{0,15}}$")
+"""The names a download URL takes: relative, up to 16 segments, none hidden (leading `.`), no `..`, no `%`,
+backslash or colon. Every file a run directory or the store holds is named so (our own file names), and
+each such name passes `confine`, so the OpenAPI schema can state it exactly."""
 
 
 def artifact_kind(name: str) -> str:

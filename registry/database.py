@@ -50,27 +50,39 @@ class WriteLock:
         self._fd: int | None = None
         self._pid = 0
 
-    def __enter__(self) -> None:
-        self._threads.acquire()
+    def acquire(self, blocking: bool = True) -> bool:
+        """Take both locks; with `blocking=False`, take neither and return False if either is held."""
+        if not self._threads.acquire(blocking):
+            return False
         if self._path is None:
-            return
+            return True
         try:
             if self._fd is None or self._pid != os.getpid():  # a forked child opens its own
                 self._fd = os.open(self._path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o600)
                 self._pid = os.getpid()
-            fcntl.flock(self._fd, fcntl.LOCK_EX)
+            fcntl.flock(self._fd, fcntl.LOCK_EX if blocking else fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            self._threads.release()
+            return False
         except BaseException:
             self._threads.release()
             raise
+        return True
 
-    def __exit__(
-        self, kind: type[BaseException] | None, error: BaseException | None, trace: TracebackType | None
-    ) -> None:
+    def release(self) -> None:
         try:
             if self._path is not None and self._fd is not None:
                 fcntl.flock(self._fd, fcntl.LOCK_UN)
         finally:
             self._threads.release()
+
+    def __enter__(self) -> None:
+        self.acquire()
+
+    def __exit__(
+        self, kind: type[BaseException] | None, error: BaseException | None, trace: TracebackType | None
+    ) -> None:
+        self.release()
 
     def close(self) -> None:
         if self._fd is not None and self._pid == os.getpid():
@@ -98,7 +110,10 @@ def _configure_sqlite(engine: Engine) -> None:
 
     @event.listens_for(engine, "begin")
     def _on_begin(connection) -> None:  # type: ignore[no-untyped-def]
-        mode = connection.get_execution_options().get("sqlite_begin", "DEFERRED")
+        options = connection.get_execution_options()
+        if options.get("isolation_level") == "AUTOCOMMIT":  # `Database.autocommit_read`: no transaction
+            return
+        mode = options.get("sqlite_begin", "DEFERRED")
         connection.exec_driver_sql(f"BEGIN {mode}")
 
 
@@ -139,16 +154,32 @@ class Database:
         with self._reader() as session:
             yield session
 
+    @property
+    def write_lock(self) -> WriteLock | None:
+        """The lock `write` takes on SQLite (None on a database server, which has row locks)."""
+        return self._write_lock
+
     @contextmanager
-    def write(self) -> Iterator[Session]:
-        """A session whose transaction holds the write lock from its start; commits on success."""
-        with self._write_lock or nullcontext(), self._writer() as session, session.begin():
+    def write(self, *, lock_held: bool = False) -> Iterator[Session]:
+        """A session whose transaction holds the write lock from its start; commits on success.
+        `lock_held`: the caller already holds `write_lock` (and releases it)."""
+        lock: AbstractContextManager[None] = nullcontext()
+        if not lock_held and self._write_lock is not None:
+            lock = self._write_lock
+        with lock, self._writer() as session, session.begin():
             yield session
 
     @contextmanager
     def read_connection(self) -> Iterator[Connection]:
         """A Core connection in one read transaction (one snapshot for several queries)."""
         with self.engine.connect() as connection, connection.begin():
+            yield connection
+
+    @contextmanager
+    def autocommit_read(self) -> Iterator[Connection]:
+        """A Core connection without a transaction: each statement sees its own snapshot. For a read that
+        is one statement, this spares `BEGIN` and `COMMIT` (two round trips on PostgreSQL)."""
+        with self.engine.connect().execution_options(isolation_level="AUTOCOMMIT") as connection:
             yield connection
 
     @contextmanager

@@ -18,6 +18,18 @@ ALIAS_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,31}$")
 TAG_KEY = re.compile(r"^[A-Za-z0-9_.:/-]{1,64}$")
 RESERVED_ALIASES = frozenset({"latest"})
 _VERSION = re.compile(r"^v?([1-9][0-9]{0,8})$")
+MAX_VERSION = 999_999_999
+"""The largest version number a reference can name (nine digits)."""
+
+# The same rules as regular expressions for an OpenAPI schema (no look-around: pydantic's engine has none)
+SELECTOR = re.compile(r"^(?:v?[1-9][0-9]{0,8}|[A-Za-z][A-Za-z0-9_-]{0,31})$")
+"""What may follow `name@`: a version (`3`, `v3`), `latest` or an alias."""
+POLICY_REF = re.compile(
+    r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}(?:@(?:v?[1-9][0-9]{0,8}|[A-Za-z][A-Za-z0-9_-]{0,31}))?$"
+)
+"""`name`, `name@VERSION`, `name@ALIAS` (`parse_policy_ref` accepts exactly these)."""
+NOT_AN_ALIAS = re.compile(r"^(?:v?[1-9][0-9]{0,8}|[Ll][Aa][Tt][Ee][Ss][Tt])$")
+"""Names of the alias form that `check_alias` refuses: version numbers and `latest`."""
 
 
 def check_policy_name(name: str) -> str:

@@ -23,6 +23,7 @@ from service.api.deps import ServiceState
 from service.api.errors import install_error_handlers
 from service.api.routes import experiments, health, jobs, policies
 from service.api.size_limit import BodySizeLimit
+from service.job_inserter import JobInserter
 from service.migrate import upgrade_service
 from service.schemas.specs import warm_up_validators
 from service.settings import ServiceSettings
@@ -48,12 +49,14 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         supervisor = Supervisor(settings, database) if settings.run_jobs else None
         if supervisor is not None:
             await run_in_threadpool(supervisor.start)
+        inserter = JobInserter(database)
         app.state.service = ServiceState(
-            settings=settings, database=database, registry=registry, supervisor=supervisor
+            settings=settings, database=database, registry=registry, supervisor=supervisor, inserter=inserter
         )
         try:
             yield
         finally:
+            inserter.stop()
             if supervisor is not None:
                 await run_in_threadpool(supervisor.stop)
             database.dispose()
@@ -63,6 +66,8 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
         summary="Queue training, alignment, evaluation and export jobs; a registry of versioned policies.",
         version="0.1.0",
         lifespan=lifespan,
+        # operation ids are the route functions' names (`get_job`), which the OpenAPI links name
+        generate_unique_id_function=lambda route: route.name,
     )
     app.add_middleware(BodySizeLimit, max_bytes=settings.max_request_bytes)
     install_error_handlers(app)

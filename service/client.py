@@ -58,12 +58,22 @@ class ServiceClient:
         return self._call("POST", "/jobs", json={"kind": kind, "spec": spec})
 
     def list_jobs(
-        self, *, status: str | None = None, kind: str | None = None, offset: int = 0, limit: int = 50
+        self,
+        *,
+        status: str | None = None,
+        kind: str | None = None,
+        offset: int = 0,
+        limit: int = 50,
+        experiment_id: int | None = None,
     ) -> dict[str, Any]:
-        params = {
-            k: v for k, v in {"status": status, "kind": kind, "offset": offset, "limit": limit}.items() if v
+        given = {
+            "status": status,
+            "kind": kind,
+            "offset": offset,
+            "limit": limit,
+            "experiment_id": experiment_id,
         }
-        return self._call("GET", "/jobs", params=params)
+        return self._call("GET", "/jobs", params={k: v for k, v in given.items() if v})
 
     def job(self, job_id: int) -> dict[str, Any]:
         return self._call("GET", f"/jobs/{job_id}")
@@ -112,7 +122,7 @@ class ServiceClient:
         return self._call("GET", f"/experiments/{experiment_id}", params=params)
 
     def cancel_experiment(self, experiment_id: int) -> dict[str, Any]:
-        return self._call("DELETE", f"/experiments/{experiment_id}")
+        return self._call("POST", f"/experiments/{experiment_id}/cancel")
 
     def artifact(self, job_id: int, name: str) -> bytes:
         """The bytes of one file of a job's run directory."""

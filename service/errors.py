@@ -24,9 +24,22 @@ class JobConflict(ServiceError):
 
 
 class SpecRejected(ServiceError):
-    """A spec that is well-formed but cannot run (unknown policy, missing pairs folder)."""
+    """A request whose content breaks a rule the schema cannot state (a bad experiment file)."""
 
     status_code = 422
+
+
+class SpecTargetNotFound(ServiceError):
+    """A spec names something the service does not have (a policy, a version, a pairs folder): 404, as
+    for a path that names it. A schema-valid request is never a 422."""
+
+    status_code = 404
+
+
+class SpecTargetConflict(ServiceError):
+    """A spec names something whose state forbids the job (a policy version with no checkpoint)."""
+
+    status_code = 409
 
 
 class LostOwnership(RuntimeError):

@@ -20,13 +20,13 @@ from pathlib import Path
 from typing import Any
 
 import yaml
-from sqlalchemy import func, select
+from sqlalchemy import delete, func, select
 
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
 from service import job_store
 from service.errors import JobConflict, JobNotFound, SpecRejected
-from service.models import FINISHED_STATUSES, Experiment, Job
+from service.models import FINISHED_STATUSES, Experiment, Job, JobArtifact, JobMetric
 
 EXPERIMENTS_AREA = "experiments"
 _FIELD = re.compile(r"^(?:bad value for|unknown key|missing key) '?([A-Za-z0-9_.\[\]]+)'?")
@@ -178,3 +178,30 @@ def cancel_experiment(database: Database, *, experiment_id: int) -> list[int]:
         except (JobNotFound, JobConflict):
             continue  # finished in the meantime
     return cancelled
+
+
+def delete_experiment(database: Database, *, experiment_id: int) -> str:
+    """Delete a finished experiment's rows (the experiment, its cells' jobs, metrics and artifact
+    records) in one transaction; its folder (relative to the artifact root) for the caller to remove.
+    409 while a cell is queued or running."""
+    with database.write() as session:
+        experiment = session.get(Experiment, experiment_id)
+        if experiment is None:
+            raise ExperimentNotFound(f"no experiment with id {experiment_id}")
+        unfinished = session.scalar(
+            select(func.count()).where(
+                Job.experiment_id == experiment_id, Job.status.not_in(FINISHED_STATUSES)
+            )
+        )
+        if unfinished:
+            raise JobConflict(
+                f"experiment {experiment_id} has {unfinished} unfinished cell(s); "
+                "cancel it (POST /experiments/{id}/cancel) or wait before deleting"
+            )
+        cells = select(Job.id).where(Job.experiment_id == experiment_id).scalar_subquery()
+        session.execute(delete(JobMetric).where(JobMetric.job_id.in_(cells)))
+        session.execute(delete(JobArtifact).where(JobArtifact.job_id.in_(cells)))
+        session.execute(delete(Job).where(Job.experiment_id == experiment_id))
+        directory = f"{EXPERIMENTS_AREA}/{experiment.id}"
+        session.delete(experiment)
+        return directory

@@ -15,9 +15,10 @@ from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import ColumnElement, delete, func, or_, select, update
+from sqlalchemy import ColumnElement, String, cast, delete, func, literal, or_, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session, aliased
+from sqlalchemy.orm.attributes import set_committed_value
 
 from registry.database import Database
 from registry.models import utc_now
@@ -40,9 +41,12 @@ class ClaimedJob:
     run_dir: str
 
 
+JOBS_AREA = "jobs"
+
+
 def job_run_dir(job_id: int) -> str:
     """The run directory of a job, relative to the artifact root."""
-    return f"jobs/{job_id}"
+    return f"{JOBS_AREA}/{job_id}"
 
 
 def create_job(
@@ -84,6 +88,36 @@ def create_job(
         return existing, False
 
 
+def create_jobs(database: Database, items: list[dict[str, Any]], *, lock_held: bool = False) -> list[Job]:
+    """Insert queued jobs (`kind`, `spec`, `resolved`, `progress_total` each) in one write transaction,
+    in order; their rows. The batch path of `POST /jobs` (service/job_inserter.py); `lock_held`: the
+    caller holds the database's write lock."""
+    with database.write(lock_held=lock_held) as session:
+        jobs = [
+            Job(
+                kind=item["kind"],
+                spec=item["spec"],
+                resolved=item["resolved"],
+                status="queued",
+                progress_total=item["progress_total"],
+            )
+            for item in items
+        ]
+        session.add_all(jobs)
+        session.flush()
+        # one UPDATE for the batch (not one per row: a round trip each on PostgreSQL)
+        ids = [job.id for job in jobs]
+        session.execute(
+            update(Job)
+            .where(Job.id.in_(ids))
+            .values(run_dir=literal(f"{JOBS_AREA}/") + cast(Job.id, String))
+            .execution_options(synchronize_session=False)
+        )
+        for job in jobs:
+            set_committed_value(job, "run_dir", job_run_dir(job.id))
+    return jobs
+
+
 def get_job(database: Database, *, job_id: int) -> Job:
     with database.read() as session:
         job = session.get(Job, job_id)
@@ -92,19 +126,46 @@ def get_job(database: Database, *, job_id: int) -> Job:
         return job
 
 
+def get_jobs(database: Database, *, job_ids: list[int]) -> list[Job]:
+    """The jobs with these ids that exist (any order)."""
+    if not job_ids:
+        return []
+    with database.read() as session:
+        return list(session.scalars(select(Job).where(Job.id.in_(job_ids))))
+
+
 def list_jobs(
-    database: Database, *, status: str | None, kind: str | None, offset: int, limit: int
+    database: Database,
+    *,
+    status: str | None,
+    kind: str | None,
+    offset: int,
+    limit: int,
+    experiment_id: int | None = None,
 ) -> tuple[list[Any], int]:
-    """A page of jobs (Core row objects with Job's attribute names), newest first, and the count,
-    read in one transaction on one Core connection (the hot path of `GET /jobs`)."""
-    query = select(*Job.__table__.columns)
-    counter = select(func.count()).select_from(Job)
+    """A page of jobs (Core row objects with Job's attribute names), newest first, and the count of all
+    jobs that match, read by one statement (the count is a scalar subquery evaluated once, so page and
+    count share one snapshot) on an autocommit connection: the hot path of `GET /jobs`, one round trip on
+    PostgreSQL. A page past the end has no row to carry the count: a second query counts."""
+    conditions = []
     if status is not None:
-        query, counter = query.where(Job.status == status), counter.where(Job.status == status)
+        conditions.append(Job.status == status)
     if kind is not None:
-        query, counter = query.where(Job.kind == kind), counter.where(Job.kind == kind)
-    with database.read_connection() as connection:
-        rows = list(connection.execute(query.order_by(Job.id.desc()).offset(offset).limit(limit)))
+        conditions.append(Job.kind == kind)
+    if experiment_id is not None:
+        conditions.append(Job.experiment_id == experiment_id)
+    counter = select(func.count()).select_from(Job).where(*conditions)
+    query = (
+        select(*Job.__table__.columns, counter.scalar_subquery().label("matching"))
+        .where(*conditions)
+        .order_by(Job.id.desc())
+        .offset(offset)
+        .limit(limit)
+    )
+    with database.autocommit_read() as connection:
+        rows = list(connection.execute(query))
+        if rows:
+            return rows, int(rows[0].matching)
         return rows, int(connection.scalar(counter) or 0)
 
 
@@ -217,6 +278,47 @@ def list_metrics(database: Database, *, job_id: int, since: int, limit: int) -> 
                 .limit(limit)
             )
         )
+
+
+@dataclass(frozen=True)
+class MetricSeries:
+    """A job's episode records thinned for drawing: `rows` in episode order, out of `episodes` recorded,
+    keeping every `stride`-th episode plus the first, the last and every greedy evaluation."""
+
+    rows: list[JobMetric]
+    episodes: int
+    stride: int
+
+
+EVALUATION_KEY = "eval/success_rate"
+"""A record with this key holds a greedy evaluation (the trainer writes NaN, stored as null, elsewhere)."""
+
+
+def metric_series(database: Database, *, job_id: int, points: int) -> MetricSeries:
+    """About `points` records of a job, whatever its length: all of them up to `points`; beyond, every
+    `stride`-th episode (stride = ceil(span / points)), the first and the last episode, and every record
+    with a greedy evaluation (`EVALUATION_KEY`), so a drawn curve keeps its ends and each evaluation.
+    The selection runs in the database (one indexed range scan; the evaluation test is a JSON lookup)."""
+    with database.read() as session:
+        if session.get(Job, job_id) is None:
+            raise JobNotFound(f"no job with id {job_id}")
+        count, first, last = session.execute(
+            select(func.count(), func.min(JobMetric.episode), func.max(JobMetric.episode)).where(
+                JobMetric.job_id == job_id
+            )
+        ).one()
+        query = select(JobMetric).where(JobMetric.job_id == job_id).order_by(JobMetric.episode)
+        stride = 1
+        if count > points:
+            stride = -(-(last - first + 1) // points)
+            query = query.where(
+                or_(
+                    JobMetric.episode % stride == 0,
+                    JobMetric.episode.in_((first, last)),
+                    JobMetric.data[EVALUATION_KEY].as_float().is_not(None),
+                )
+            )
+        return MetricSeries(rows=list(session.scalars(query)), episodes=int(count), stride=stride)
 
 
 def list_artifacts(database: Database, *, job_id: int) -> list[JobArtifact]:

@@ -8,7 +8,8 @@
   config.yaml, a line in command.txt, torch's thread count and seed, and metrics.csv;
 * the counters (episode, global step, wall clock including earlier sessions), the training returns and
   successes, the evaluation history and the best evaluation, and their restore from a checkpoint;
-* the episode record (:data:`RECORD_KEYS`), its metrics.csv row and the ``on_episode`` callback;
+* the episode record (:data:`RECORD_KEYS`), its metrics.csv row, its TensorBoard scalars when
+  ``run.tensorboard`` is set (:mod:`core.runs.tensorboard_log`) and the ``on_episode`` callback;
 * when to evaluate, checkpoint and end (the budget; ``should_stop()`` or Ctrl-C through :class:`StopFlag`);
 * summary.json and learning_curve.png.
 
@@ -33,6 +34,7 @@ import torch
 from core.config import Config, ConfigError, check_config, resolve_level_defaults
 from core.runs.metrics import area_under_curve, final_performance
 from core.runs.run_dir import CHECKPOINT_FORMAT, MetricsCSV, RunDirectory, RunDirectoryError, load_checkpoint
+from core.runs.tensorboard_log import TensorBoardLog, require_tensorboard
 
 RECORD_KEYS: tuple[str, ...] = (
     "episode",
@@ -128,6 +130,8 @@ class RunBookkeeping:
         self.best: tuple[float, float] | None = None
         self.last_eval: dict[str, float] = {}
         self.stopped = False
+        self.tensorboard: TensorBoardLog | None = None
+        self.resumed_at_step: int | None = None
 
     # -- setup -----------------------------------------------------------------------------------
     def _check_checkpoint(self, checkpoint: Mapping[str, Any]) -> None:
@@ -137,6 +141,8 @@ class RunBookkeeping:
         """Set up the run directory, torch's threads and seed, and metrics.csv; the checkpoint to resume
         from (``None`` for a new run)."""
         checkpoint = None
+        if self.config.run.tensorboard:
+            require_tensorboard()
         if self.resume:
             checkpoint = load_checkpoint(self.dir.latest_path)
             self._check_checkpoint(checkpoint)
@@ -170,6 +176,7 @@ class RunBookkeeping:
         self.best = (float(best[0]), float(best[1])) if best else None
         self.evals = [(int(e), float(s)) for e, s in checkpoint["evals"]]
         self.csv.truncate_after(self.episode)
+        self.resumed_at_step = self.global_step
         self.returns = self.csv.column("charts/episodic_return")
         self.successes = self.csv.column("charts/success")
 
@@ -265,6 +272,11 @@ class RunBookkeeping:
         record["time/wall_s"] = self.wall()
         record["charts/sps"] = (self.global_step - self.start_step) / max(elapsed, 1e-9)
         self.csv.append(record)
+        if self.config.run.tensorboard:
+            if self.tensorboard is None:  # opened at the first record: a resumed run's step is known by then
+                purge = None if self.resumed_at_step is None else self.resumed_at_step + 1
+                self.tensorboard = TensorBoardLog(self.dir.root, purge_from_step=purge)
+            self.tensorboard.add(record)
         if self.on_episode is not None:
             self.on_episode(dict(record))
 
@@ -314,6 +326,9 @@ class RunBookkeeping:
         """Write summary.json (``ac``: the actor-update rule, if the method has ours) and
         learning_curve.png (with the ``dual/…`` ``diagnostics`` panel, if given); the summary."""
         cfg = self.config
+        if self.tensorboard is not None:
+            self.tensorboard.close()
+            self.tensorboard = None
         summary = self._summary(final_eval, ac)
         self.dir.write_summary(summary)
         self.dir.write_learning_curve(

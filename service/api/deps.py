@@ -3,16 +3,22 @@
 from __future__ import annotations
 
 import secrets
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Annotated
+from functools import partial
+from typing import Annotated, Any, TypeVar
 
 from fastapi import Depends, HTTPException, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from starlette.concurrency import run_in_threadpool
 
 from registry import PolicyRegistry
 from registry.database import Database
+from service.job_inserter import JobInserter
 from service.settings import ServiceSettings
 from service.supervisor import Supervisor
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -21,6 +27,15 @@ class ServiceState:
     database: Database
     registry: PolicyRegistry
     supervisor: Supervisor | None
+    inserter: JobInserter
+
+    async def query(self, function: Callable[..., T], /, *args: Any, **kwargs: Any) -> T:
+        """Run a short store call where it costs least: on the event loop for SQLite (embedded: the call
+        is CPU work that never waits, so a thread would only add GIL hand-offs), in the thread pool for a
+        database server (PostgreSQL: network round trips, which threads overlap)."""
+        if self.database.engine.dialect.name == "sqlite":
+            return function(*args, **kwargs)
+        return await run_in_threadpool(partial(function, *args, **kwargs))
 
 
 async def get_state(request: Request) -> ServiceState:

@@ -9,6 +9,7 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from registry.errors import (
     InvalidName,
@@ -24,6 +25,7 @@ from service.schemas.jobs import JobKindName
 log = logging.getLogger("dualsys.service.api")
 _KINDS = set(JobKindName.__args__)  # type: ignore[attr-defined]
 _LOCATIONS = {"body", "query", "path", "header", "cookie"}
+HTTP_METHODS = ("DELETE", "GET", "HEAD", "OPTIONS", "PATCH", "POST", "PUT")
 
 
 def field_path(loc: tuple[Any, ...] | list[Any]) -> str:
@@ -51,6 +53,22 @@ def _registry_status(error: RegistryError) -> int:
     return 400
 
 
+def allowed_methods(request: Request) -> str:
+    """Every method some route serves at the request's path, for a 405's `Allow` header.
+
+    Starlette names only the methods of the first route whose path matched (`POST` for `/jobs`, where
+    `GET` is served by a second route); a client that trusts `Allow` must see them all. Each method is
+    tried against the routes' own `matches` (FastAPI nests included routers, so the routes' `methods`
+    are not all on the top level).
+    """
+    found = []
+    for method in HTTP_METHODS:
+        scope = {**request.scope, "method": method}
+        if any(route.matches(scope)[0] is Match.FULL for route in request.app.router.routes):
+            found.append(method)
+    return ", ".join(found)
+
+
 def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, error: RequestValidationError) -> JSONResponse:
@@ -70,7 +88,10 @@ def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def _http(request: Request, error: StarletteHTTPException) -> JSONResponse:
         detail = error.detail if isinstance(error.detail, str) else str(error.detail)
-        return JSONResponse(status_code=error.status_code, content=error_body(detail), headers=error.headers)
+        headers = error.headers
+        if error.status_code == 405:
+            headers = {**(headers or {}), "Allow": allowed_methods(request)}
+        return JSONResponse(status_code=error.status_code, content=error_body(detail), headers=headers)
 
     @app.exception_handler(ServiceError)
     async def _service(request: Request, error: ServiceError) -> JSONResponse:

@@ -8,7 +8,7 @@ from fastapi import Response
 from pydantic import BaseModel
 
 from service.models import Job, JobArtifact, JobMetric
-from service.schemas.jobs import ArtifactPublic, JobProgress, JobPublic, MetricPublic
+from service.schemas.jobs import ArtifactPublic, JobCell, JobProgress, JobPublic, MetricPublic
 
 
 def json_response(
@@ -26,6 +26,8 @@ def job_public(job: Job | Any) -> JobPublic:
         id=job.id,
         kind=job.kind,  # type: ignore[arg-type]
         status=job.status,  # type: ignore[arg-type]
+        experiment_id=job.experiment_id,
+        cell=job_cell(job),
         spec=job.spec,
         resolved=job.resolved,
         reason=job.reason,
@@ -40,6 +42,32 @@ def job_public(job: Job | Any) -> JobPublic:
         finished_at=job.finished_at,
         heartbeat_at=job.heartbeat_at,
     )
+
+
+def job_cell(job: Job | Any) -> JobCell | None:
+    """The cell of an experiment's job: its key (a column) and, from `resolved`, label, reward, seed and
+    the config's `env.id` where the config has one."""
+    if job.experiment_id is None or not job.cell:
+        return None
+    resolved = job.resolved or {}
+    cell = resolved.get("cell") or {}
+    env = ((resolved.get("config") or {}).get("env") or {}).get("id")
+    label, reward, seed = _parse_key(job.cell)
+    return JobCell(
+        key=job.cell,
+        label=str(cell.get("label", label)),
+        reward=str(cell.get("reward", reward)),
+        seed=int(cell.get("seed", seed)),
+        env=env if isinstance(env, str) else None,
+    )
+
+
+def _parse_key(key: str) -> tuple[str, str, int]:
+    """`label/reward/seed-s` → (label, reward, s); the fallback when `resolved.cell` is missing."""
+    label, _, rest = key.partition("/")
+    reward, _, seed = rest.partition("/")
+    number = seed.removeprefix("seed-")
+    return label, reward, int(number) if number.isdigit() else 0
 
 
 def metric_public(row: JobMetric) -> MetricPublic:

@@ -47,6 +47,9 @@ class JobKind:
     after_success: Callable[
         [PolicyRegistry, int, BaseModel, dict[str, Any], Path, dict[str, Any]], dict[str, Any]
     ]
+    quick_prepare: bool = False
+    """`prepare` reads no files and no database and imports nothing: the API runs it on its event loop
+    (the others run in the request thread pool: `train` resolves configs and imports the method registry)."""
 
 
 def after_nothing(

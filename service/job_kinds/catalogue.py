@@ -23,7 +23,15 @@ JOB_KINDS: dict[str, JobKind] = {
     "align": JobKind("align", AlignSpec, run_align, None, prepare_align, register_aligned),
     "eval": JobKind("eval", EvalSpec, run_eval, None, resolve_policy_input, after_nothing),
     "export": JobKind("export", ExportSpec, run_export, None, resolve_policy_input, attach_onnx),
-    "probe": JobKind("probe", ProbeSpec, run_probe, "checkpoints/latest.json", prepare_probe, after_nothing),
+    "probe": JobKind(
+        "probe",
+        ProbeSpec,
+        run_probe,
+        "checkpoints/latest.json",
+        prepare_probe,
+        after_nothing,
+        quick_prepare=True,
+    ),
 }
 
 

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 from pydantic import BaseModel
 
 from registry.references import parse_policy_ref
-from service.errors import SpecRejected
+from service.errors import SpecTargetNotFound
 from service.job_kinds.base import JobContext, Submission
 from service.job_kinds.policy_input import resolve_policy_input
 from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec
@@ -123,8 +123,12 @@ def attach_onnx(
 def prepare_align(spec: BaseModel, registry: PolicyRegistry) -> Submission:
     """The pairs folder must exist on the server; then resolve the source policy."""
     assert isinstance(spec, AlignSpec)
-    if not Path(spec.pairs_dir).expanduser().is_dir():
-        raise SpecRejected(
+    try:
+        found = Path(spec.pairs_dir).expanduser().is_dir()
+    except (OSError, ValueError):  # a name too long for the file system, or not encodable
+        found = False
+    if not found:
+        raise SpecTargetNotFound(
             f"spec.pairs_dir: {spec.pairs_dir} is not a directory on the server", field="spec.pairs_dir"
         )
     return resolve_policy_input(spec, registry)

@@ -6,8 +6,8 @@ from typing import TYPE_CHECKING
 
 from pydantic import BaseModel
 
-from registry.errors import RegistryError
-from service.errors import SpecRejected
+from registry.errors import PolicyNotFound, RegistryError, VersionNotFound
+from service.errors import SpecRejected, SpecTargetConflict, SpecTargetNotFound
 from service.job_kinds.base import Submission
 
 if TYPE_CHECKING:
@@ -19,10 +19,12 @@ def resolve_policy_input(spec: BaseModel, registry: PolicyRegistry) -> Submissio
     reference = spec.policy
     try:
         record = registry.resolve(reference)
+    except (PolicyNotFound, VersionNotFound) as error:
+        raise SpecTargetNotFound(f"spec.policy: {error}", field="spec.policy") from error
     except RegistryError as error:
         raise SpecRejected(f"spec.policy: {error}", field="spec.policy") from error
     if record.checkpoint is None and record.onnx is None:
-        raise SpecRejected(f"spec.policy: {record.ref} has no checkpoint", field="spec.policy")
+        raise SpecTargetConflict(f"spec.policy: {record.ref} has no checkpoint", field="spec.policy")
     return Submission(
         resolved={
             "policy": record.ref,

@@ -5,17 +5,22 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
+from service.schemas.json_schema import StrictRequest
+
+EXPERIMENT_FORMAT = "dualsys-experiment"
+"""The OpenAPI `format` of an experiment file's text: a client (or a fuzzer) that knows the format
+generates valid files; JSON Schema cannot state the file's rules itself."""
 ExperimentStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 
 
-class ExperimentCreate(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
+class ExperimentCreate(StrictRequest):
     content: str = Field(
-        max_length=200_000,
-        description="The experiment file's text (YAML, the format of `dualsys experiment`).",
+        max_length=80_000,  # 12 bytes a character at worst as JSON: under the 1 MB request limit
+        description="The experiment file's text: YAML in the format of `dualsys experiment` "
+        "(docs/experiments.md). A file that breaks its rules is a 422 naming the key (`content.seeds`).",
+        json_schema_extra={"format": EXPERIMENT_FORMAT},
     )
     workers: int = Field(default=1, ge=1, le=64, description="Cells of this experiment run at once, at most.")
 

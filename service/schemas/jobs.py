@@ -9,16 +9,17 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field
 
+from service.schemas.json_schema import StrictRequest
 from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec, ProbeSpec, TrainSpec
 
 JobStatus = Literal["queued", "running", "succeeded", "failed", "cancelled"]
 JobKindName = Literal["train", "align", "eval", "export", "probe"]
 
 
-class _Create(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+class _Create(StrictRequest):
+    """`{"kind": ..., "spec": ...}`: exactly its JSON schema."""
 
 
 class TrainJobCreate(_Create):
@@ -57,10 +58,24 @@ class JobProgress(BaseModel):
     total: int | None = Field(description="Episodes the job will run, when known.")
 
 
+class JobCell(BaseModel):
+    """Where a job sits in its experiment's grid (only for a cell of an experiment)."""
+
+    key: str = Field(description="label/reward/seed-s, the cell's folder in the experiment.")
+    label: str = Field(description="The method's label in the experiment file.")
+    reward: str
+    seed: int
+    env: str | None = Field(
+        default=None, description="The gymnasium id the cell trains on (`env.id` of its config), if set."
+    )
+
+
 class JobPublic(BaseModel):
     id: int
     kind: JobKindName
     status: JobStatus
+    experiment_id: int | None = Field(description="The experiment this job is a cell of (None: its own).")
+    cell: JobCell | None = Field(description="The cell of that experiment this job runs.")
     spec: dict[str, Any]
     resolved: dict[str, Any]
     reason: str | None = Field(description="Why the job failed, or why it was re-queued.")
@@ -97,6 +112,17 @@ class MetricPublic(BaseModel):
 class MetricsPublic(BaseModel):
     data: list[MetricPublic]
     count: int
+
+
+class MetricSeriesPublic(BaseModel):
+    """A job's episode records thinned for drawing (`GET /jobs/{id}/series`)."""
+
+    data: list[MetricPublic] = Field(
+        description="Every `stride`-th episode, the first and the last, and every greedy evaluation."
+    )
+    count: int = Field(description="Records in `data`.")
+    episodes: int = Field(description="Records the job has (all of them: `GET /jobs/{id}/metrics`).")
+    stride: int = Field(description="1 when `data` holds every record.")
 
 
 class ArtifactPublic(BaseModel):

@@ -3,36 +3,42 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, Field, StringConstraints
 
 from registry.records import PolicyRecord, PolicyVersionRecord
+from registry.references import MAX_VERSION, POLICY_REF, TAG_KEY
+from service.schemas.json_schema import MAX_SAFE_INTEGER, StrictRequest, closed_mapping
+
+TagKey = Annotated[str, StringConstraints(pattern=TAG_KEY.pattern)]
+TagValue = Annotated[str, StringConstraints(max_length=1000)]
 
 
-class VersionCreate(BaseModel):
+class VersionCreate(StrictRequest):
     """Register a finished job's run directory as the next version of the policy."""
 
-    model_config = ConfigDict(extra="forbid")
-
     job_id: int = Field(
-        ge=1, le=2**63 - 1, description="A succeeded job whose run directory holds a checkpoint."
+        ge=1, le=MAX_SAFE_INTEGER, description="A succeeded job whose run directory holds a checkpoint."
     )
-    parent: str | None = Field(default=None, description="The version this one derives from (name@VERSION).")
-    tags: dict[str, str] = Field(default_factory=dict, max_length=100)
+    parent: str | None = Field(
+        default=None,
+        pattern=POLICY_REF.pattern,
+        description="The version this one derives from (name, name@VERSION or name@ALIAS).",
+    )
+    # at most 50 tags of 1 000 characters: even fully escaped, a request stays under the 1 MB limit
+    tags: dict[TagKey, TagValue] = Field(
+        default_factory=dict, max_length=50, json_schema_extra=closed_mapping
+    )
     description: str = Field(default="", max_length=10_000)
 
 
-class AliasSet(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    version: int = Field(ge=1, le=2**31 - 1)
+class AliasSet(StrictRequest):
+    version: int = Field(ge=1, le=MAX_VERSION)
 
 
-class TagSet(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-    value: str = Field(max_length=10_000)
+class TagSet(StrictRequest):
+    value: str = Field(max_length=1000)
 
 
 class PolicyArtifactPublic(BaseModel):

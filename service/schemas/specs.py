@@ -16,37 +16,51 @@ Unknown fields are refused (422 naming the field). `policy` takes `name`, `name@
 from __future__ import annotations
 
 import contextlib
-import re
-from typing import Literal
+from collections.abc import Callable
+from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+from pydantic import Field, ValidationInfo, field_validator
 
-from registry.errors import InvalidName
-from registry.references import check_policy_name, parse_policy_ref
+from registry.references import POLICY_NAME, POLICY_REF
+from service.schemas.config_overrides import check_overrides, overrides_json_schema
+from service.schemas.json_schema import StrictRequest
 
-OverrideValue = str | int | float | bool | None
-_OVERRIDE_KEY = re.compile(r"^[a-z_]+\.[a-z_0-9]+$")
-_FILE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,100}$")
-
-
-class SpecBase(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+ONNX_FILE_NAME = r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,95}\.onnx$"
+"""A plain file name ending in .onnx (no folders), at most 101 characters."""
 
 
-def _check_policy(value: str) -> str:
-    try:
-        parse_policy_ref(value)
-    except InvalidName as error:
-        raise ValueError(str(error)) from error
-    return value
+class SpecBase(StrictRequest):
+    """A job spec: exactly its JSON schema (service.schemas.json_schema.StrictRequest)."""
 
 
-def _override_text(value: OverrideValue) -> str:
+def _override_text(value: Any) -> str:
     if value is None:
         return "none"
     if isinstance(value, bool):
         return "true" if value else "false"
+    if isinstance(value, list):
+        return ",".join(str(item) for item in value)
     return str(value)
+
+
+def _choices(names: Callable[[], Any]) -> Callable[[dict[str, Any]], None]:
+    """A `json_schema_extra` that lists the values a string field accepts (known when the schema is
+    built: the method registry and the profiles live in core)."""
+
+    def extra(schema: dict[str, Any]) -> None:
+        choices = names()
+        if choices is None:
+            return
+        target = next((b for b in schema.get("anyOf", []) if b.get("type") == "string"), schema)
+        target["enum"] = sorted(choices)
+
+    return extra
+
+
+def _overrides_schema(schema: dict[str, Any]) -> None:
+    description = schema.get("description")
+    schema.clear()
+    schema.update(overrides_json_schema(), description=description)
 
 
 class TrainSpec(SpecBase):
@@ -55,7 +69,13 @@ class TrainSpec(SpecBase):
     As in `dualsys train` (dualsys_cli/train.py), the named options are applied after `overrides`.
     """
 
-    algo: str | None = Field(default=None, min_length=1, max_length=32, description="Method name (--algo).")
+    algo: str | None = Field(
+        default=None,
+        min_length=1,
+        max_length=32,
+        description="Method name (--algo).",
+        json_schema_extra=_choices(lambda: _algo_names()),
+    )
     reward: Literal["dense", "sparse"] | None = Field(
         default=None, description="Extrinsic reward (--reward)."
     )
@@ -65,9 +85,19 @@ class TrainSpec(SpecBase):
     minutes: float | None = Field(
         default=None, gt=0, le=525_600, description="Wall-clock budget (--minutes)."
     )
-    profile: str = Field(default="default", min_length=1, max_length=32, description="Config profile.")
-    overrides: dict[str, OverrideValue] = Field(
-        default_factory=dict, max_length=200, description='Config overrides, e.g. {"agent.batch_size": 32}.'
+    profile: str = Field(
+        default="default",
+        min_length=1,
+        max_length=32,
+        description="Config profile.",
+        json_schema_extra=_choices(lambda: _config_profiles()),
+    )
+    overrides: dict[str, Any] = Field(
+        default_factory=dict,
+        max_length=200,
+        description='Config overrides with typed values, e.g. {"agent.batch_size": 32, "net.conv_channels": '
+        "[8, 8]}; every key of core.config with its type and range.",
+        json_schema_extra=_overrides_schema,
     )
     ac: Literal["ddpg", "cacla"] | None = Field(default=None, description="Actor-critic update rule (--ac).")
 
@@ -89,15 +119,12 @@ class TrainSpec(SpecBase):
 
     @field_validator("overrides")
     @classmethod
-    def _valid_overrides(
-        cls, value: dict[str, OverrideValue], info: ValidationInfo
-    ) -> dict[str, OverrideValue]:
-        for key, raw in value.items():
-            if not _OVERRIDE_KEY.match(key):
-                raise ValueError(f"override key {key!r} is not of the form section.key")
-            message = _config_error(info.data.get("profile", "default"), [f"{key}={_override_text(raw)}"])
-            if message:
-                raise ValueError(message)
+    def _valid_overrides(cls, value: dict[str, Any], info: ValidationInfo) -> dict[str, Any]:
+        check_overrides(value)  # keys, JSON types and ranges, as the schema states them
+        items = [f"{key}={_override_text(raw)}" for key, raw in value.items()]
+        message = _config_error(info.data.get("profile", "default"), items)
+        if message:
+            raise ValueError(message)
         return value
 
     def config_overrides(self) -> list[str]:
@@ -122,52 +149,42 @@ class TrainSpec(SpecBase):
 class AlignSpec(SpecBase):
     """`dualsys align` options: fine-tune a policy's encoder on paired sim/real images (Section 4.2)."""
 
-    policy: str = Field(description="Source policy: name, name@VERSION or name@ALIAS.")
-    pairs_dir: str = Field(min_length=1, max_length=4096, description="Folder of paired sim/real images.")
+    policy: str = Field(
+        pattern=POLICY_REF.pattern, description="Source policy: name, name@VERSION or name@ALIAS."
+    )
+    pairs_dir: str = Field(
+        pattern=r"^[^\x00]+$",
+        min_length=1,
+        max_length=4096,
+        description="Folder of paired sim/real images on the server (404 when there is none).",
+    )
     epochs: int | None = Field(default=None, ge=1, le=100_000)
     batch_size: int | None = Field(default=None, ge=1, le=65_536)
-    name: str | None = Field(default=None, description="Registered name of the aligned policy.")
-
-    _policy = field_validator("policy")(_check_policy)
-
-    @field_validator("name")
-    @classmethod
-    def _valid_name(cls, value: str | None) -> str | None:
-        if value is None:
-            return None
-        try:
-            return check_policy_name(value)
-        except InvalidName as error:
-            raise ValueError(str(error)) from error
+    name: str | None = Field(
+        default=None, pattern=POLICY_NAME.pattern, description="Registered name of the aligned policy."
+    )
 
 
 class EvalSpec(SpecBase):
     """`dualsys eval` options: the 8-step grasp-trial evaluator (Table 2 protocol)."""
 
-    policy: str = Field(description="Policy: name, name@VERSION or name@ALIAS.")
+    policy: str = Field(pattern=POLICY_REF.pattern, description="Policy: name, name@VERSION or name@ALIAS.")
     trials: int = Field(default=25, ge=1, le=100_000)
     max_steps: int = Field(default=8, ge=1, le=10_000)
     domain: Literal["sim", "real"] = "sim"
     seed: int = Field(default=0, ge=0, le=2**31 - 1)
     onnx: bool = Field(default=False, description="Evaluate the exported ONNX instead of the checkpoint.")
 
-    _policy = field_validator("policy")(_check_policy)
-
 
 class ExportSpec(SpecBase):
     """`dualsys export` options: encoder + actor to ONNX, checked against PyTorch."""
 
-    policy: str = Field(description="Policy: name, name@VERSION or name@ALIAS.")
-    out: str = Field(default="policy.onnx", description="ONNX file name inside the job's run directory.")
-
-    _policy = field_validator("policy")(_check_policy)
-
-    @field_validator("out")
-    @classmethod
-    def _plain_onnx_name(cls, value: str) -> str:
-        if not _FILE_NAME.match(value) or not value.endswith(".onnx"):
-            raise ValueError("out must be a plain file name ending in .onnx (no folders)")
-        return value
+    policy: str = Field(pattern=POLICY_REF.pattern, description="Policy: name, name@VERSION or name@ALIAS.")
+    out: str = Field(
+        default="policy.onnx",
+        pattern=ONNX_FILE_NAME,
+        description="ONNX file name inside the job's run directory (a plain name ending in .onnx).",
+    )
 
 
 class ProbeSpec(SpecBase):
@@ -175,13 +192,12 @@ class ProbeSpec(SpecBase):
 
     episodes: int = Field(default=5, ge=1, le=100_000)
     interval_s: float = Field(default=0.1, ge=0.0, le=60.0)
-    fail_at_episode: int | None = Field(default=None, ge=1, description="Raise an error at this episode.")
-
-    @model_validator(mode="after")
-    def _fail_within_run(self) -> ProbeSpec:
-        if self.fail_at_episode is not None and self.fail_at_episode > self.episodes:
-            raise ValueError("fail_at_episode must not exceed episodes")
-        return self
+    fail_at_episode: int | None = Field(
+        default=None,
+        ge=1,
+        le=100_000,
+        description="Raise an error at this episode (beyond `episodes`: the run ends first and succeeds).",
+    )
 
 
 SPEC_MODELS: dict[str, type[SpecBase]] = {

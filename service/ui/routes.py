@@ -28,7 +28,9 @@ from service import job_store
 from service.api.deps import StateDep
 from service.errors import JobNotFound
 from service.models import JOB_STATUSES, Job
+from service.schemas.config_overrides import algo_names
 from service.schemas.jobs import JobKindName
+from service.schemas.json_schema import MAX_SAFE_INTEGER
 from service.ui.rendering import environment, render
 from service.ui.views import SuccessTracker, diagnostic_groups, flatten_config, job_row, summary_success
 
@@ -56,10 +58,17 @@ def _not_found(started: float, message: str) -> HTMLResponse:
     return _page("not_found.html", started, status_code=404, title="Not found", message=message)
 
 
-def _jobs_context(state: Any, status: str | None, kind: str | None, page: int) -> dict[str, Any]:
+def _jobs_context(
+    state: Any, status: str | None, kind: str | None, page: int, experiment_id: int | None = None
+) -> dict[str, Any]:
     offset = (page - 1) * PAGE_SIZE
     rows, count = job_store.list_jobs(
-        state.database, status=status, kind=kind, offset=offset, limit=PAGE_SIZE
+        state.database,
+        status=status,
+        kind=kind,
+        offset=offset,
+        limit=PAGE_SIZE,
+        experiment_id=experiment_id,
     )
     successes = _success.current(state.database, rows)
     now = datetime.now(UTC)
@@ -73,6 +82,7 @@ def _jobs_context(state: Any, status: str | None, kind: str | None, page: int) -
         "last": offset + len(rows),
         "status": status or "",
         "kind": kind or "",
+        "experiment_id": experiment_id or "",
         "statuses": JOB_STATUSES,
         "kinds": JOB_KINDS,
         "live": any(job.status in LIVE_STATUSES for job in rows) or page == 1,
@@ -80,6 +90,7 @@ def _jobs_context(state: Any, status: str | None, kind: str | None, page: int) -
 
 
 PageQuery = Annotated[int, Query(ge=1, le=10**7)]
+ExperimentQuery = Annotated[int | None, Query(ge=1, le=MAX_SAFE_INTEGER)]
 
 
 def _blank(value: str | None) -> str | None:
@@ -92,16 +103,25 @@ def jobs_page(
     status: Annotated[str | None, Query()] = None,
     kind: Annotated[str | None, Query()] = None,
     page: PageQuery = 1,
+    experiment_id: ExperimentQuery = None,
 ) -> HTMLResponse:
-    """The jobs table, newest first, filtered and paged; the page's script refreshes its rows."""
+    """The jobs table, newest first, filtered (status, kind, experiment) and paged; the page's script
+    refreshes its rows."""
     started = time.perf_counter()
     status, kind = _blank(status), _blank(kind)
     if status is not None and status not in JOB_STATUSES:
         return _not_found(started, f"unknown status {status!r}")
     if kind is not None and kind not in JOB_KINDS:
         return _not_found(started, f"unknown kind {kind!r}")
-    context = _jobs_context(state, status, kind, page)
-    return _page("jobs.html", started, title="Jobs", nav="jobs", **context)
+    context = _jobs_context(state, status, kind, page, experiment_id)
+    return _page("jobs.html", started, title="Jobs", nav="jobs", train_choices=_train_choices(), **context)
+
+
+def _train_choices() -> dict[str, list[str]]:
+    """The submit form's choices: the methods and profiles a train spec accepts."""
+    from core.config import PROFILES
+
+    return {"algos": list(algo_names()), "profiles": sorted(PROFILES)}
 
 
 @router.get("/jobs/rows", response_class=HTMLResponse)
@@ -110,18 +130,19 @@ def jobs_rows(
     status: Annotated[str | None, Query()] = None,
     kind: Annotated[str | None, Query()] = None,
     page: PageQuery = 1,
+    experiment_id: ExperimentQuery = None,
 ) -> HTMLResponse:
     """The table's body and counts alone: what the jobs page polls (at most once a second)."""
     started = time.perf_counter()
     status, kind = _blank(status), _blank(kind)
     if (status is not None and status not in JOB_STATUSES) or (kind is not None and kind not in JOB_KINDS):
         return HTMLResponse("", status_code=404)
-    context = _jobs_context(state, status, kind, page)
+    context = _jobs_context(state, status, kind, page, experiment_id)
     return _page("_jobs_rows.html", started, **context)
 
 
 @router.get("/jobs/{job_id}", response_class=HTMLResponse)
-def job_page(job_id: Annotated[int, Path(ge=1, le=2**63 - 1)], state: StateDep) -> HTMLResponse:
+def job_page(job_id: Annotated[int, Path(ge=1, le=MAX_SAFE_INTEGER)], state: StateDep) -> HTMLResponse:
     """One job: spec and config, live learning curve and diagnostics, artifacts, cancel."""
     started = time.perf_counter()
     try:
@@ -155,6 +176,56 @@ def job_page(job_id: Annotated[int, Path(ge=1, le=2**63 - 1)], state: StateDep) 
             "total": job.progress_total,
             "diagnostics": diagnostic_groups(),
         },
+    )
+
+
+MAX_COMPARED = 20
+"""Jobs one compare page overlays (each curve is a request for the job's thinned series)."""
+
+
+@router.get("/compare", response_class=HTMLResponse)
+def compare_page(
+    state: StateDep,
+    jobs: Annotated[str, Query(max_length=400, description="Comma-separated job ids.")] = "",
+) -> HTMLResponse:
+    """Several jobs' learning curves overlaid on env steps, with a smoothing control (the page's script
+    reads each job's thinned series)."""
+    started = time.perf_counter()
+    ids: list[int] = []
+    for part in jobs.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        if not part.isdigit() or not 1 <= int(part) <= MAX_SAFE_INTEGER:
+            return _not_found(started, f"not a job id: {part!r}")
+        if int(part) not in ids:
+            ids.append(int(part))
+    if len(ids) > MAX_COMPARED:
+        return _not_found(started, f"at most {MAX_COMPARED} jobs can be compared at once")
+    rows = job_store.get_jobs(state.database, job_ids=ids)
+    found = {job.id: job for job in rows}
+    now = datetime.now(UTC)
+    compared = []
+    for job_id in ids:
+        job = found.get(job_id)
+        if job is None:
+            compared.append({"id": job_id, "label": f"job {job_id} (not found)", "missing": True})
+            continue
+        row = job_row(job, None, now)
+        parts = [f"job {job_id}", row["method"] or job.kind]
+        if job.cell:
+            parts.append(job.cell)
+        else:
+            seed = f"seed {row['seed']}" if row["seed"] is not None else None
+            parts += [p for p in (row["reward"], seed) if p]
+        compared.append({"id": job_id, "label": " · ".join(parts), "status": job.status, "missing": False})
+    return _page(
+        "compare.html",
+        started,
+        title="Compare runs",
+        nav="jobs",
+        compared=compared,
+        page_data={"jobs": [c for c in compared if not c["missing"]]},
     )
 
 
@@ -262,7 +333,7 @@ def experiments_page(request: Request) -> HTMLResponse:
 
 @router.get("/experiments/{experiment_id}", response_class=HTMLResponse)
 def experiment_page(
-    experiment_id: Annotated[int, Path(ge=1, le=2**63 - 1)], request: Request
+    experiment_id: Annotated[int, Path(ge=1, le=MAX_SAFE_INTEGER)], request: Request
 ) -> HTMLResponse:
     """One experiment: its grid of cells and their states, the report's table and figure; cancel."""
     started = time.perf_counter()

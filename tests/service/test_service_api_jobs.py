@@ -77,10 +77,12 @@ def test_unauthenticated_mutations_get_401(service: LiveService) -> None:
         ({"kind": "train", "spec": {"profile": "fastest"}}, "spec.profile"),
         ({"kind": "eval", "spec": {"trials": 3}}, "spec.policy"),
         ({"kind": "eval", "spec": {"policy": "bad name@x"}}, "spec.policy"),
-        ({"kind": "eval", "spec": {"policy": "unknown@1"}}, "spec.policy"),
         ({"kind": "export", "spec": {"policy": "p", "out": "../x.onnx"}}, "spec.out"),
-        ({"kind": "align", "spec": {"policy": "p@1", "pairs_dir": "/no/such/dir"}}, "spec.pairs_dir"),
-        ({"kind": "probe", "spec": {"episodes": 2, "fail_at_episode": 5}}, "spec"),
+        ({"kind": "probe", "spec": {"episodes": "2"}}, "spec.episodes"),  # JSON types are not converted
+        ({"kind": "probe", "spec": {"interval_s": False}}, "spec.interval_s"),
+        ({"kind": "train", "spec": {"overrides": {"agent.batch_size": "32"}}}, "spec.overrides"),
+        ({"kind": "train", "spec": {"overrides": {"agent.batch_size": 0}}}, "spec.overrides"),
+        ({"kind": "train", "spec": {"overrides": {"env.level": "hard", "env.hand": "auto"}}}, "spec"),
         ({"kind": "dance", "spec": {}}, "kind"),
         ({"spec": {}}, "kind"),
     ],
@@ -91,6 +93,49 @@ def test_bad_specs_get_422_naming_the_field(client: httpx.Client, body: dict, fi
     payload = response.json()
     assert payload["detail"].startswith(field), payload
     assert payload["errors"] and payload["errors"][0]["field"].startswith(field)
+
+
+@pytest.mark.parametrize(
+    ("body", "status", "field"),
+    [
+        ({"kind": "eval", "spec": {"policy": "unknown@1"}}, 404, "spec.policy"),
+        ({"kind": "align", "spec": {"policy": "p@1", "pairs_dir": "/no/such/dir"}}, 404, "spec.pairs_dir"),
+    ],
+)
+def test_specs_naming_what_the_service_lacks_get_404(
+    client: httpx.Client, body: dict, status: int, field: str
+) -> None:
+    """A schema-valid spec is never a 422: a policy or folder that is not there is a 404, as for a path."""
+    response = client.post("/jobs", json=body)
+    assert response.status_code == status, response.text
+    assert response.json()["detail"].startswith(field)
+
+
+def test_integral_numbers_are_integers_as_in_json_schema(client: httpx.Client) -> None:
+    created = client.post("/jobs", json={"kind": "probe", "spec": {"episodes": 2.0, "interval_s": 0}})
+    assert created.status_code == 202, created.text
+    assert created.json()["spec"]["episodes"] == 2
+    # beyond `episodes` the run ends first: no longer a 422 the schema could not state
+    later = client.post("/jobs", json={"kind": "probe", "spec": {"episodes": 1, "fail_at_episode": 5}})
+    assert later.status_code == 202, later.text
+    assert wait_status(client, later.json()["id"], FINISHED)["status"] == "succeeded"
+
+
+@pytest.mark.parametrize(
+    ("path", "allowed"),
+    [
+        ("/jobs", "GET, POST"),
+        ("/jobs/1", "DELETE, GET"),
+        ("/experiments", "GET, POST"),
+        ("/experiments/1", "DELETE, GET"),
+        ("/policies/grasp/aliases/champion", "DELETE, PUT"),
+    ],
+)
+def test_405_names_every_method_of_the_path(client: httpx.Client, path: str, allowed: str) -> None:
+    response = client.request("PATCH", path)
+    assert response.status_code == 405
+    assert response.headers["allow"] == allowed
+    assert response.json()["detail"] == "Method Not Allowed"
 
 
 def test_malformed_json_and_oversized_bodies(client: httpx.Client) -> None:
@@ -202,7 +247,8 @@ def test_artifact_downloads_cannot_leave_the_run_directory(client: httpx.Client,
     created = submit(client, "probe", episodes=1, interval_s=0)
     wait_status(client, created["id"], FINISHED)
     response = client.get(httpx.URL(f"{client.base_url}/jobs/{created['id']}/artifacts/{attack}"))
-    assert response.status_code in (400, 404), response.text
+    # a name outside the schema's pattern is a 422; one inside it that is not there a 404
+    assert response.status_code in (400, 404, 422), response.text
     assert b"SQLite" not in response.content and b"root:" not in response.content
     assert response.headers["content-type"] == "application/json"
 

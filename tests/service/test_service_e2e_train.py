@@ -21,7 +21,7 @@ from tests.utils.jobs import FINISHED, job, metrics, submit, wait_status
 from tests.utils.live_service import LiveService, wait_for
 
 TINY = {
-    "net.conv_channels": "4,4",
+    "net.conv_channels": [4, 4],
     "net.latent_dim": 8,
     "net.critic_hidden": 8,
     "net.actor_hidden": 8,

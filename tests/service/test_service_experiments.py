@@ -1,7 +1,8 @@
 """Experiments as jobs, against a real service: an experiment file's cells run as train jobs (at most
 `workers` at a time), the report's numbers equal the library's report on the same run directories
 (and `dualsys experiments report` writes the same), a crash mid-experiment completes every cell exactly
-once, DELETE cancels the unfinished cells, and bad files are 422s naming the key."""
+once, cancel stops the unfinished cells and DELETE removes a finished experiment, and bad files are 422s
+naming the key."""
 
 from __future__ import annotations
 
@@ -154,7 +155,7 @@ def test_crash_mid_experiment_completes_every_cell_exactly_once(
 
 
 @pytest.mark.timeout(900)
-def test_delete_cancels_unfinished_cells_and_bad_files_are_422(
+def test_cancel_then_delete_and_bad_files_are_422(
     start_service: Callable[..., LiveService],
 ) -> None:
     service = start_service(workers=1)
@@ -182,10 +183,20 @@ def test_delete_cancels_unfinished_cells_and_bad_files_are_422(
 
         content = _experiment("long", methods=[{"label": "A", "algo": "ddpg"}], seeds=3, steps=100_000)
         created = client.post("/experiments", json={"content": content, "workers": 1}).json()
-        unauthorised = service.client(auth=False).delete(f"/experiments/{created['id']}")
+        unauthorised = service.client(auth=False).post(f"/experiments/{created['id']}/cancel")
         assert unauthorised.status_code == 401
-        cancelled = client.delete(f"/experiments/{created['id']}")
+        assert client.delete(f"/experiments/{created['id']}").status_code == 409  # cells unfinished
+        cancelled = client.post(f"/experiments/{created['id']}/cancel")
         assert cancelled.status_code == 202 and cancelled.json()["cancel_requested"] is True
         done = _wait_finished(client, created["id"], timeout=600)
         assert done["status"] == "cancelled" and done["cells"]["cancelled"] == 3, done
         assert all(job(client, j["job_id"])["status"] in FINISHED for j in done["jobs"])
+        cells = client.get("/jobs", params={"experiment_id": created["id"]}).json()
+        assert sorted(j["id"] for j in cells["data"]) == sorted(j["job_id"] for j in done["jobs"])
+        # DELETE removes a finished experiment: its row, its cells' jobs and its folder
+        folder = service.artifacts / "experiments" / str(created["id"])
+        assert folder.is_dir()
+        assert client.delete(f"/experiments/{created['id']}").status_code == 204
+        assert client.get(f"/experiments/{created['id']}").status_code == 404
+        assert client.get("/jobs", params={"experiment_id": created["id"]}).json()["count"] == 0
+        assert not folder.exists()

@@ -95,7 +95,7 @@ def test_ray_job_failure_and_cancel(supervisor: Supervisor) -> None:
 
 def test_ray_runs_a_tiny_training_job(supervisor: Supervisor) -> None:
     overrides = {
-        "net.conv_channels": "4,4",
+        "net.conv_channels": [4, 4],
         "net.latent_dim": 8,
         "net.critic_hidden": 8,
         "net.actor_hidden": 8,

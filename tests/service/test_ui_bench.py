@@ -16,7 +16,10 @@ def test_dashboard_bench_reports_render_time_and_first_load_weight() -> None:
         "/ui/static/dashboard.css",
         "/ui/static/dashboard.js",
         "/ui/static/jobs.js",
+        "/ui/static/submit.js",
         "/ui/jobs/rows?page=1",
     }
     assert result["jobs_page_first_load_bytes"] == sum(parts.values())
     assert result["job_page_first_load_bytes"] > result["job_page_metric_rows"] * 100  # the metrics came
+    # a 100 000-episode run's page draws a thinned series: a fraction of its records' weight
+    assert result["long_run_page_first_load_bytes"] < result["long_run_every_episode_bytes"] / 20

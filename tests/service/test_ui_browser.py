@@ -202,7 +202,7 @@ def test_script_in_a_tag_or_spec_renders_as_text(
 
 
 TINY_I2A = {
-    "net.conv_channels": "4,4",
+    "net.conv_channels": [4, 4],
     "net.latent_dim": 8,
     "net.critic_hidden": 8,
     "net.actor_hidden": 8,

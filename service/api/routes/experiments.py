@@ -8,8 +8,10 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Path, Query, Response, status
 
+from registry.artifact_store import ArtifactStore
 from service import experiment_store
 from service.api.deps import MutationAuth, ServiceState, StateDep
+from service.api.links import link, linked
 from service.api.presenters import json_response
 from service.schemas.errors import ErrorPublic
 from service.schemas.experiments import (
@@ -20,16 +22,33 @@ from service.schemas.experiments import (
     ExperimentsPublic,
     ExperimentSummary,
 )
+from service.schemas.json_schema import MAX_SAFE_INTEGER
 
 log = logging.getLogger("dualsys.service")
 router = APIRouter(prefix="/experiments", tags=["experiments"])
-ExperimentId = Annotated[int, Path(ge=1, le=2**63 - 1, description="Experiment id.")]
+ExperimentId = Annotated[int, Path(ge=1, le=MAX_SAFE_INTEGER, description="Experiment id.")]
 ERRORS = {
+    400: {"model": ErrorPublic, "description": "A body that cannot be read as JSON (not UTF-8)."},
     401: {"model": ErrorPublic},
     404: {"model": ErrorPublic},
+    409: {"model": ErrorPublic},
     413: {"model": ErrorPublic},
     422: {"model": ErrorPublic},
 }
+
+
+def _experiment_links(expression: str) -> dict[str, dict]:
+    return {
+        "GetExperiment": link("get_experiment", "The experiment.", experiment_id=expression),
+        "CancelExperiment": link(
+            "cancel_experiment", "Cancel its unfinished cells.", experiment_id=expression
+        ),
+        "DeleteExperiment": link(
+            "delete_experiment", "Delete it once every cell has finished.", experiment_id=expression
+        ),
+        "ExperimentJobs": link("list_jobs", "Its cells' jobs.", experiment_id=expression),
+    }
+
 
 _reports: dict[int, tuple[tuple[int, ...], dict[str, Any]]] = {}
 """Per experiment: the finished cells the latest report covers, and the report."""
@@ -114,7 +133,7 @@ def _public(state: ServiceState, experiment_id: int, *, with_report: bool) -> Ex
     status_code=status.HTTP_202_ACCEPTED,
     response_model=ExperimentPublic,
     dependencies=[MutationAuth],
-    responses=ERRORS,
+    responses={**ERRORS, **linked(202, "Its cells are queued.", **_experiment_links("$response.body#/id"))},
 )
 def submit_experiment(body: ExperimentCreate, state: StateDep) -> Response:
     """Validate an experiment file and queue its cells as train jobs (202); 422 names the bad key."""
@@ -130,7 +149,14 @@ def submit_experiment(body: ExperimentCreate, state: StateDep) -> Response:
     )
 
 
-@router.get("", response_model=ExperimentsPublic, responses=ERRORS)
+@router.get(
+    "",
+    response_model=ExperimentsPublic,
+    responses={
+        **ERRORS,
+        **linked(200, "A page of experiments.", **_experiment_links("$response.body#/data/0/id")),
+    },
+)
 def list_experiments(
     state: StateDep,
     offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
@@ -161,8 +187,8 @@ def get_experiment(
     return json_response(_public(state, experiment_id, with_report=report))
 
 
-@router.delete(
-    "/{experiment_id}",
+@router.post(
+    "/{experiment_id}/cancel",
     status_code=status.HTTP_202_ACCEPTED,
     response_model=ExperimentPublic,
     dependencies=[MutationAuth],
@@ -176,3 +202,19 @@ def cancel_experiment(experiment_id: ExperimentId, state: StateDep) -> Response:
     return json_response(
         _public(state, experiment_id, with_report=False), status_code=status.HTTP_202_ACCEPTED
     )
+
+
+@router.delete(
+    "/{experiment_id}",
+    status_code=status.HTTP_204_NO_CONTENT,
+    dependencies=[MutationAuth],
+    responses=ERRORS,
+)
+def delete_experiment(experiment_id: ExperimentId, state: StateDep) -> Response:
+    """Delete a finished experiment: its row, its cells' jobs and metrics, and its folder. 409 while a
+    cell is queued or running (cancel it first)."""
+    directory = experiment_store.delete_experiment(state.database, experiment_id=experiment_id)
+    ArtifactStore.remove_tree(state.registry.store.confine(directory))
+    with _reports_lock:
+        _reports.pop(experiment_id, None)
+    return Response(status_code=status.HTTP_204_NO_CONTENT)

@@ -1,6 +1,7 @@
 // Experiments pages, from the REST API's JSON (GET /experiments, GET /experiments/{id}): the list, and
-// one experiment's grid of cells (method × reward × seed, each a train job), its report's table and a
-// figure of each method's IQM with its 95% CI. Values go into the page with textContent only.
+// one experiment's grid of cells (method × reward × seed, each a train job; tick cells to compare them),
+// each method's learning curve (mean ± 1 s.d. over seeds, from the cells' thinned series), its report's
+// table and a figure of each method's IQM with its 95% CI. Values go into the page with textContent only.
 "use strict";
 
 (function () {
@@ -109,6 +110,13 @@
           if (c) {
             td.dataset.status = c.job.status;
             td.dataset.jobId = String(c.job.job_id);
+            const box = document.createElement("input");
+            box.type = "checkbox";
+            box.className = "pick";
+            box.value = String(c.job.job_id);
+            box.checked = chosen.indexOf(box.value) >= 0;
+            box.setAttribute("aria-label", "choose " + c.job.cell);
+            td.appendChild(box);
             const a = link("/ui/jobs/" + c.job.job_id, "");
             a.appendChild(status(c.job.status));
             a.appendChild(node("small", " ep " + c.job.episode, "muted"));
@@ -124,6 +132,103 @@
     });
     table.append(thead, tbody);
     host.replaceChildren(table);
+  }
+
+  // ------------------------------------------------------------------ cells chosen for the compare page
+  const chosen = [];
+
+  function showChosen() {
+    const button = document.getElementById("compare-cells");
+    if (!button) return;
+    button.disabled = chosen.length === 0;
+    button.textContent = chosen.length ? "Compare " + chosen.length + " chosen cell" + (chosen.length > 1 ? "s" : "")
+      : "Compare chosen cells";
+  }
+
+  // ------------------------------------------------------------------ per-method curves
+  const CURVE_POINTS = 200; // records per cell's thinned series
+  const GRID = 120; // env-step positions a method's mean and band are computed at
+  const CURVES_EVERY_MS = 30000;
+
+  function methodCurves(experiment, loaded) {
+    // per reward: per method, the mean and s.d. over its seeds of each cell's smoothed return, interpolated
+    // on a common env-step grid up to the step every seed of the method has reached
+    const charts = window.dualsys.charts;
+    const out = {};
+    experiment.jobs.forEach(function (job) {
+      const series = loaded[job.job_id];
+      if (!series || series.rec.episode.length < 2) return;
+      const cell = parseCell(job.cell);
+      const perReward = out[cell.reward] = out[cell.reward] || {};
+      (perReward[cell.label] = perReward[cell.label] || []).push(series.rec);
+    });
+    const result = {};
+    Object.keys(out).forEach(function (reward) {
+      result[reward] = Object.keys(out[reward]).map(function (label) {
+        const runs = out[reward][label];
+        const start = Math.max.apply(null, runs.map(function (r) { return r.x[0]; }));
+        const end = Math.min.apply(null, runs.map(function (r) { return r.x[r.x.length - 1]; }));
+        const grid = [];
+        if (end > start) for (let i = 0; i < GRID; i++) grid.push(start + (end - start) * i / (GRID - 1));
+        const curves = runs.map(function (r) {
+          const win = Math.max(1, Math.min(100, Math.round(r.episode.length / 25)));
+          return charts.interpolate(r.x, charts.smooth(r.ret, win), grid);
+        });
+        const mean = [], lo = [], hi = [];
+        grid.forEach(function (_, g) {
+          const values = curves.map(function (c) { return c[g]; }).filter(function (v) { return v !== null; });
+          if (!values.length) { mean.push(null); lo.push(null); hi.push(null); return; }
+          const m = values.reduce(function (a, b) { return a + b; }, 0) / values.length;
+          const sd = Math.sqrt(values.reduce(function (a, b) { return a + (b - m) * (b - m); }, 0) / values.length);
+          mean.push(m); lo.push(m - sd); hi.push(m + sd);
+        });
+        return { label: label, seeds: runs.length, grid: grid, mean: mean, lo: lo, hi: hi };
+      });
+    });
+    return result;
+  }
+
+  function drawCurves(experiment, loaded) {
+    const charts = window.dualsys.charts;
+    const host = document.getElementById("curves");
+    const perReward = methodCurves(experiment, loaded);
+    const rewards = Object.keys(perReward);
+    if (!rewards.length) {
+      host.replaceChildren(node("p", "The curves appear once cells have recorded episodes.", "muted"));
+      return;
+    }
+    const labels = [];
+    experiment.jobs.forEach(function (j) {
+      const label = parseCell(j.cell).label;
+      if (labels.indexOf(label) < 0) labels.push(label);
+    });
+    const width = Math.max(360, host.clientWidth || 900);
+    const figures = rewards.map(function (reward) {
+      const series = perReward[reward].filter(function (m) { return m.grid.length; }).map(function (m) {
+        const cls = charts.colour(labels.indexOf(m.label));
+        return { name: m.label + " (" + m.seeds + " seed" + (m.seeds > 1 ? "s" : "") + ")", key: m.label,
+          xs: m.grid, ys: m.mean, band: { lo: m.lo, hi: m.hi }, cls: cls, axis: "left" };
+      });
+      const figure = node("figure", null, "chart");
+      figure.dataset.reward = reward;
+      figure.dataset.methods = String(series.length);
+      figure.appendChild(series.length ? charts.chart({ width: width, height: 280, title: reward + " reward",
+        xLabel: "env steps", left: { label: "episodic return" }, right: null, series: series })
+        : node("p", "not enough recorded episodes yet", "muted"));
+      const caption = node("figcaption", reward + " reward");
+      figure.appendChild(caption);
+      return figure;
+    });
+    host.replaceChildren.apply(host, figures);
+  }
+
+  async function loadCurves(experiment) {
+    const charts = window.dualsys.charts;
+    const started = experiment.jobs.filter(function (j) { return j.episode > 0; });
+    const results = await Promise.all(started.map(function (j) { return charts.loadSeries(j.job_id, CURVE_POINTS); }));
+    const loaded = {};
+    results.forEach(function (result, i) { if (!result.error) loaded[started[i].job_id] = result; });
+    drawCurves(experiment, loaded);
   }
 
   function drawHead(experiment) {
@@ -222,6 +327,8 @@
     let doneBefore = -1;
     let pending = false;
     let timer = null;
+    let curvesAt = 0;
+    let curvesDone = -1;
     async function refresh() {
       const result = await window.dualsys.api("GET", "/experiments/" + id + "?report=false");
       if (!result.ok) {
@@ -231,6 +338,12 @@
       const experiment = result.body;
       drawHead(experiment);
       drawGrid(experiment);
+      // the curves: at first, when a cell finishes, and every 30 s while cells run
+      if (experiment.cells.done !== curvesDone || (experiment.cells.running && Date.now() - curvesAt > CURVES_EVERY_MS)) {
+        curvesDone = experiment.cells.done;
+        curvesAt = Date.now();
+        loadCurves(experiment);
+      }
       if (experiment.cells.done !== doneBefore || pending) {
         doneBefore = experiment.cells.done;
         // the service bootstraps the report in the background once per set of finished cells and answers
@@ -252,10 +365,21 @@
         window.clearInterval(timer);
       }
     }
+    document.getElementById("grid").addEventListener("change", function (event) {
+      const box = event.target;
+      if (!box.classList || !box.classList.contains("pick")) return;
+      const at = chosen.indexOf(box.value);
+      if (box.checked && at < 0) chosen.push(box.value);
+      if (!box.checked && at >= 0) chosen.splice(at, 1);
+      showChosen();
+    });
+    document.getElementById("compare-cells").addEventListener("click", function () {
+      if (chosen.length) window.location.href = "/ui/compare?jobs=" + chosen.join(",");
+    });
     document.getElementById("cancel-button").addEventListener("click", async function () {
       const out = document.getElementById("cancel-result");
       out.textContent = "…";
-      const result = await window.dualsys.api("DELETE", "/experiments/" + id);
+      const result = await window.dualsys.api("POST", "/experiments/" + id + "/cancel");
       window.dualsys.showResult(out, result, "cancel requested: unfinished cells stop");
       if (result.ok) refresh();
     });
@@ -263,5 +387,8 @@
   }
 
   if (data.experiment_id) showExperiment();
-  else if (document.getElementById("experiments-body")) showList();
+  else if (document.getElementById("experiments-body")) {
+    showList();
+    document.addEventListener("dualsys:experiment-submitted", showList);
+  }
 })();

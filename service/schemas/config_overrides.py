@@ -46,6 +46,7 @@ def _ranges() -> dict[str, dict[str, float]]:
         "dual.e_max_relative",
         "agent.critic_lr",
         "agent.actor_lr",
+        "agent.rnd_lr",
         "dual.model_lr",
         "dual.e_max",
     ):
@@ -76,6 +77,10 @@ def _value_type(annotation: Any, key: str, bounds: dict[str, float]) -> Any:
         return Annotated[StrictFloat, Field(allow_inf_nan=False, **bounds)]
     if key == "run.algo":  # check_config's caller (resolve_algo) accepts only registered methods
         return Literal[tuple(algo_names())]  # type: ignore[valid-type]
+    if key == "env.id":  # the trainer builds only registered gymnasium ids (core.envs.gym_env)
+        return Literal[tuple(env_ids())]  # type: ignore[valid-type]
+    if origin is dict or annotation is dict:  # env.kwargs: gymnasium.make's keyword arguments
+        return Annotated[dict[StrictStr, Any], Field(max_length=64)]
     if annotation is str:
         return Annotated[StrictStr, Field(max_length=256)]
     raise TypeError(f"config key {key} has a type the service cannot describe: {annotation!r}")
@@ -87,6 +92,15 @@ def algo_names() -> tuple[str, ...]:
     from core.runs.methods import ALGOS
 
     return tuple(sorted(ALGOS))
+
+
+@cache
+def env_ids() -> tuple[str, ...]:
+    """The gymnasium ids `env.id` accepts here: every id registered once dualsys's envs (and, where the dmc
+    extra is installed, dm_control's through shimmy) are imported."""
+    from core.envs.gym_env import registered_ids
+
+    return tuple(registered_ids())
 
 
 @cache

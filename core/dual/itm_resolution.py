@@ -78,3 +78,64 @@ class RelativeResolution:
         restore_generator(self._rng, state["rng"])
         current = float(state["current"])
         self.current = None if np.isnan(current) else current
+
+
+class LatentScale:
+    """The running RMS spread of the latent, for an ITM in scale-free coordinates (``dual.region_space``).
+
+    s_t = sqrt(EMA of ‖φ − μ‖²) around the running mean μ (an EMA too), both with the bias correction of
+    Adam's moments and a time constant of ``horizon`` states. The map sees φ / s: multiplying every latent by
+    k multiplies s by k, so the normalised stream, the nodes and e_max (in units of s) do not change. Pure
+    scaling is how our encoder's latent drifts most (distances grow about 100× over training,
+    docs/results.md); nodes left behind by any other drift stop winning and are pruned
+    (``dual.region_prune_after``). ``warm`` says whether ``warmup`` states have been seen: before that the
+    spread of the first few, strongly correlated latents is no scale, and the map does not grow.
+    """
+
+    def __init__(self, dim: int, horizon: int = 1000, warmup: int = 100) -> None:
+        self.rate = 1.0 / float(horizon)
+        self.warmup = int(warmup)
+        self._mean = np.zeros(dim, dtype=np.float64)
+        self._square = 0.0
+        self._weight = 0.0
+        self.seen = 0
+
+    @property
+    def scale(self) -> float:
+        """s (1 before any spread has been seen)."""
+        if self._weight <= 0.0 or self._square <= 0.0:
+            return 1.0
+        return float(np.sqrt(self._square / self._weight))
+
+    @property
+    def warm(self) -> bool:
+        return self.seen >= self.warmup
+
+    def observe(self, phi: np.ndarray | torch.Tensor) -> None:
+        x = phi.detach().cpu().numpy() if isinstance(phi, torch.Tensor) else np.asarray(phi)
+        x = x.astype(np.float64).reshape(-1)
+        keep = 1.0 - self.rate
+        self._weight = keep * self._weight + self.rate
+        self._mean = keep * self._mean + self.rate * x
+        deviation = x - self._mean / self._weight
+        self._square = keep * self._square + self.rate * float(deviation @ deviation)
+        self.seen += 1
+
+    def normalise(self, phi: np.ndarray | torch.Tensor) -> np.ndarray:
+        """φ / s as float64 NumPy (any leading shape)."""
+        x = phi.detach().cpu().numpy() if isinstance(phi, torch.Tensor) else np.asarray(phi)
+        return x.astype(np.float64) / self.scale
+
+    def state_dict(self) -> dict[str, torch.Tensor]:
+        return {
+            "mean": torch.from_numpy(self._mean.copy()),
+            "square": torch.tensor(self._square, dtype=torch.float64),
+            "weight": torch.tensor(self._weight, dtype=torch.float64),
+            "seen": torch.tensor(self.seen),
+        }
+
+    def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
+        self._mean = state["mean"].numpy().astype(np.float64).copy()
+        self._square = float(state["square"])
+        self._weight = float(state["weight"])
+        self.seen = int(state["seen"])

@@ -25,6 +25,14 @@ Options (see docs/dual-system.md):
 - ``error_norm="squared"`` (Eq. 8 as printed: squared norms) or ``"l2"`` (authors' code: unsquared
   norms ‖M − φ′‖₂ + |R − r|). The prediction error of a sample is computed BEFORE its update and
   returned by `update`, ready for the learning-progress tracker.
+- ``target="absolute"`` (Eq. 5 as printed: the network outputs φ̂′) or ``"delta"`` (``dual.model_target``,
+  not in the paper: φ̂′ = φ + M(φ, a), the network outputs the change). A latent that moves little per step
+  is then "nothing changes" at initialisation instead of a random point, and the hidden layer spends its 20
+  units on the change rather than on copying φ through tanh (docs/dual-system.md, "World models").
+- ``termination=True`` (``dual.model_termination``, not in the paper): a third head, a logit of "this
+  transition ended the episode", trained with binary cross-entropy beside Eq. 5 (its own output weights; the
+  hidden layer is shared). Imagined transitions take their ``done`` flag from it. Eq. 8 errors never include
+  it.
 """
 
 from __future__ import annotations
@@ -40,14 +48,17 @@ from core.dual.capacity import grown_capacity
 OutputActivation = Literal["linear", "released"]
 NodeInit = Literal["fresh", "parent"]
 ErrorNorm = Literal["squared", "l2"]
+ModelTarget = Literal["absolute", "delta"]
 
 
 @dataclass(frozen=True)
 class ModelPrediction:
-    """Predicted next latents ``[B, latent]`` and rewards ``[B]``."""
+    """Predicted next latents ``[B, latent]``, rewards ``[B]`` and termination probabilities ``[B]``."""
 
     next_latent: torch.Tensor
     reward: torch.Tensor
+    done: torch.Tensor
+    """P(terminated) from the termination head; zeros when the bank has none."""
 
 
 class ModelBank:
@@ -72,6 +83,8 @@ class ModelBank:
         error_norm: ErrorNorm = "squared",
         initial_capacity: int = 64,
         generator: torch.Generator | None = None,
+        target: ModelTarget = "absolute",
+        termination: bool = False,
     ) -> None:
         if output_activation not in ("linear", "released"):
             raise ValueError(f"output_activation must be 'linear' or 'released', got {output_activation!r}")
@@ -81,6 +94,10 @@ class ModelBank:
             raise ValueError(f"error_norm must be 'squared' or 'l2', got {error_norm!r}")
         if lr <= 0:
             raise ValueError(f"model lr must be > 0, got {lr}")
+        if target not in ("absolute", "delta"):
+            raise ValueError(f"model target must be 'absolute' or 'delta', got {target!r}")
+        if target == "delta" and output_activation == "released":
+            raise ValueError("a delta model needs linear outputs (a sigmoid output cannot be a change)")
         self.latent_dim = latent_dim
         self.action_dim = action_dim
         self.hidden = hidden
@@ -90,6 +107,8 @@ class ModelBank:
         self.output_activation: OutputActivation = output_activation
         self.init: NodeInit = init
         self.error_norm: ErrorNorm = error_norm
+        self.target: ModelTarget = target
+        self.termination = bool(termination)
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
         in_dim = latent_dim + action_dim
         self._shapes: dict[str, tuple[int, ...]] = {
@@ -100,6 +119,8 @@ class ModelBank:
             "wr": (hidden, 1),
             "br": (1,),
         }
+        if self.termination:
+            self._shapes.update({"wd": (hidden, 1), "bd": (1,)})
         self._slices: dict[str, slice] = {}
         offset = 0
         for k, shape in self._shapes.items():
@@ -181,7 +202,15 @@ class ModelBank:
         if self.output_activation == "released":
             next_latent = torch.sigmoid(next_latent)
             reward = torch.tanh(reward)
+        if self.target == "delta":
+            next_latent = phi + next_latent
         return x, h, next_latent, reward
+
+    def _done_logit(self, p: dict[str, torch.Tensor], h: torch.Tensor) -> torch.Tensor:
+        """The termination head's logit ``[B]`` (zeros without a head)."""
+        if not self.termination:
+            return torch.zeros(h.shape[0])
+        return (h * p["wd"].squeeze(-1)).sum(-1) + p["bd"].squeeze(-1)
 
     def gather(self, node_ids: torch.Tensor) -> dict[str, torch.Tensor]:
         """Parameters of the given nodes, one row per id (a gathered copy)."""
@@ -199,8 +228,18 @@ class ModelBank:
     def predict(self, node_ids: torch.Tensor, phi: torch.Tensor, action: torch.Tensor) -> ModelPrediction:
         """M_n(φ, a) and R_n(φ, a) for each (node, sample) pair, one batched op."""
         phi, action = _as_batch(phi), _as_batch(action)
-        _, _, next_latent, reward = self._forward(self.gather(node_ids), phi, action)
-        return ModelPrediction(next_latent=next_latent, reward=reward)
+        params = self.gather(node_ids)
+        _, h, next_latent, reward = self._forward(params, phi, action)
+        done = torch.sigmoid(self._done_logit(params, h)) if self.termination else torch.zeros_like(reward)
+        return ModelPrediction(next_latent=next_latent, reward=reward, done=done)
+
+    @torch.no_grad()
+    def predict_rows(self, rows: torch.Tensor, phi: torch.Tensor, action: torch.Tensor) -> ModelPrediction:
+        """Like `predict`, with explicit flattened parameter rows ``[B, num_params]`` (e.g. snapshots)."""
+        params = self._split(rows)
+        _, h, next_latent, reward = self._forward(params, _as_batch(phi), _as_batch(action))
+        done = torch.sigmoid(self._done_logit(params, h)) if self.termination else torch.zeros_like(reward)
+        return ModelPrediction(next_latent=next_latent, reward=reward, done=done)
 
     # ------------------------------------------------------------------ Eq. 8 errors
     def errors(
@@ -226,13 +265,15 @@ class ModelBank:
         action: torch.Tensor,
         next_phi: torch.Tensor,
         reward: torch.Tensor,
+        terminated: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """One Adam step per touched node on its mean Eq. 5 loss; returns pre-update Eq. 8 errors ``[B]``.
 
         Samples may share a node: each sample's loss is weighted by 1/(its node's sample count), the
         per-sample gradients (written out by hand for the one-hidden-layer model) are summed per node
         with ``index_add_``, and the Adam step is applied to the touched nodes' rows only, with each
-        node's own step count in the bias correction.
+        node's own step count in the bias correction. With a termination head its binary cross-entropy
+        on ``terminated`` (zeros when None) is added to each sample's loss.
         """
         ids = torch.as_tensor(node_ids, dtype=torch.int64).reshape(-1)
         phi, action = _as_batch(phi), _as_batch(action)
@@ -261,7 +302,13 @@ class ModelBank:
             g_latent = g_latent * pred_latent * (1.0 - pred_latent)
             g_reward = g_reward * (1.0 - pred_reward * pred_reward)
         g_hidden = torch.bmm(per_sample["wm"], g_latent.unsqueeze(-1)).squeeze(-1)
-        g_hidden = (g_hidden + g_reward.unsqueeze(-1) * per_sample["wr"].squeeze(-1)) * (1.0 - h * h)
+        g_hidden = g_hidden + g_reward.unsqueeze(-1) * per_sample["wr"].squeeze(-1)
+        if self.termination:
+            done = torch.zeros(ids.numel()) if terminated is None else _as_batch(terminated).reshape(-1)
+            # ∂ BCE(sigmoid(z), y) / ∂z = sigmoid(z) − y, weighted like the squared terms (1 / count).
+            g_done = (torch.sigmoid(self._done_logit(per_sample, h)) - done) * weight.squeeze(-1) * 0.5
+            g_hidden = g_hidden + g_done.unsqueeze(-1) * per_sample["wd"].squeeze(-1)
+        g_hidden = g_hidden * (1.0 - h * h)
         batch = ids.numel()
         grad = torch.empty((batch, self.num_params))
         grad[:, self._slices["w1"]] = (x.unsqueeze(-1) * g_hidden.unsqueeze(1)).reshape(batch, -1)
@@ -270,6 +317,9 @@ class ModelBank:
         grad[:, self._slices["bm"]] = g_latent
         grad[:, self._slices["wr"]] = h * g_reward.unsqueeze(-1)
         grad[:, self._slices["br"]] = g_reward.unsqueeze(-1)
+        if self.termination:
+            grad[:, self._slices["wd"]] = h * g_done.unsqueeze(-1)
+            grad[:, self._slices["bd"]] = g_done.unsqueeze(-1)
         if batch > 1:  # sum the per-sample gradients of each node (rows follow ``unique``'s order)
             grad = torch.zeros((unique.numel(), self.num_params)).index_add_(0, inverse, grad)
         self._adam_step(unique, rows, grad)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from core.config import load_config
+from core.config import PAPER_DUAL_OVERRIDES, load_config
 from core.dual.itm_resolution import RelativeResolution
 from core.dual.world_models import LocalWorldModels
 
@@ -27,7 +27,8 @@ def test_relative_e_max_is_rho_times_the_median_pairwise_distance():
 
 
 def _world(*overrides: str) -> LocalWorldModels:
-    dual = load_config("default", list(overrides)).dual
+    """The paper's raw-latent ITM (e_max = 6), where the e_max_relative option applies."""
+    dual = load_config("default", [*PAPER_DUAL_OVERRIDES, *overrides]).dual
     return LocalWorldModels(dual, latent_dim=8, action_dim=1, generator=torch.Generator().manual_seed(0))
 
 

@@ -1,0 +1,268 @@
+"""Held-out reliability of the local world models: the repair of Eq. 8-9's learning progress as a
+reliability signal (Section 2.3.2) and as the source of the intrinsic reward (``dual.reliability = heldout``).
+
+The paper defines a region's reliability by the average prediction error of its model and uses the change
+of that average, LP = ⟨e⟩_{t−W} − ⟨e⟩_t (Eq. 9), both for arbitration (LP ≥ 0 → model-based) and for
+r_int = −LP. Measured on the stream of errors of new transitions, each window mean mixes the model's change
+with the difference between the samples it happened to see: with σ = 40, W = 20 and 50 % per-sample noise,
+P(LP ≥ 0) is 0.51 when the error halves over a run and 0.47 when it doubles (docs/dual-system.md). The repair
+keeps both ideas — reliability from prediction error, progress as its change — and measures them with less
+noise:
+
+- every ``every``-th real transition of a node goes to the node's **held-out set** (a ring of ``size``) and is
+  never trained on;
+- the node's parameters are **snapshotted** every ``lag`` (= W) real updates; the progress is the *paired*
+  difference, on the same held-out samples, between the error of the snapshot two rotations back (between
+  W and 2W updates old) and the error of the current model: the sample-to-sample spread cancels;
+- the current model's held-out error is compared with the **no-change predictor** (φ̂′ = φ, r̂ = 0) on the same
+  samples, which makes the figures scale-free: ``ratio`` = model error / no-change error.
+
+`judge` is the verdict (a pure function, so the synthetic checks of `core.dual.checks.reliability` run the
+very rule the agents use): with n ≥ ``size`` / 2 held-out samples, the paired mean difference d̄ and its
+standard error s,
+
+- improving = d̄ > z·s and ratio < 1 (the model gets better and already beats "nothing changes");
+- worsening = d̄ < −z·s;
+- accurate = ratio ≤ ``accurate_ratio``;
+- trusted = improving, or accurate and not worsening.
+
+A region whose model cannot learn (random outcomes) has a ratio that stays above the accurate level and no
+progress beyond its standard error, so it is not trusted. ``progress`` = d̄ / no-change error is the
+scale-free learning progress the repaired intrinsic reward uses; ``share`` = clip(1 − ratio, 0, 1) gates
+imagination. All per-node state is stacked ``[capacity, ...]`` and `evaluate` handles any set of nodes in one
+batched forward of the bank (gather + ``bmm``), never a loop over nodes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from core.dual.capacity import grown_capacity
+from core.dual.model_bank import ModelBank
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """`judge`'s figures per node (arrays ``[k]``)."""
+
+    trusted: np.ndarray
+    ratio: np.ndarray
+    """Mean held-out error of the current model / that of the no-change predictor (NaN: undefined)."""
+    progress: np.ndarray
+    """Paired mean error decrease since the snapshot, divided by the no-change error (0: undefined)."""
+    standard_error: np.ndarray
+    """Standard error of that paired mean, in the same units."""
+
+
+def judge(
+    error_now: np.ndarray,
+    error_before: np.ndarray,
+    error_no_change: np.ndarray,
+    mask: np.ndarray,
+    z: float,
+    accurate_ratio: float,
+    min_count: int,
+) -> Verdict:
+    """The reliability verdict for k nodes from their held-out errors ``[k, n]`` (``mask``: filled slots).
+
+    ``error_now``: the current model; ``error_before``: the snapshot W..2W updates back; ``error_no_change``:
+    φ̂′ = φ, r̂ = 0. See the module docstring for the rule.
+    """
+    mask = mask.astype(bool)
+    count = mask.sum(axis=1)
+    safe = np.maximum(count, 1)
+    now = np.where(mask, error_now, 0.0).sum(axis=1) / safe
+    no_change = np.where(mask, error_no_change, 0.0).sum(axis=1) / safe
+    diff = np.where(mask, error_before - error_now, 0.0)
+    mean_diff = diff.sum(axis=1) / safe
+    spread = np.where(mask, diff - mean_diff[:, None], 0.0)
+    variance = (spread * spread).sum(axis=1) / np.maximum(count - 1, 1)
+    standard_error = np.sqrt(variance / safe)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(no_change > 0, now / no_change, np.where(now > 0, np.inf, 0.0))
+        scale = np.where(no_change > 0, no_change, 1.0)
+    enough = count >= max(2, min_count)
+    improving = (mean_diff > z * standard_error) & (mean_diff > 0) & (ratio < 1.0)
+    worsening = mean_diff < -z * standard_error
+    accurate = ratio <= accurate_ratio
+    trusted = enough & (improving | (accurate & ~worsening))
+    return Verdict(
+        trusted=trusted,
+        ratio=np.where(enough, ratio, np.nan),
+        progress=np.where(enough, mean_diff / scale, 0.0),
+        standard_error=np.where(enough, standard_error / scale, 0.0),
+    )
+
+
+class HeldOutReliability:
+    """Per-node held-out sets, parameter snapshots and the latest verdicts (module docstring)."""
+
+    def __init__(
+        self,
+        bank: ModelBank,
+        size: int = 16,
+        every: int = 4,
+        lag: int = 20,
+        z: float = 2.0,
+        accurate_ratio: float = 0.5,
+        initial_capacity: int = 64,
+    ) -> None:
+        if size < 2 or every < 2 or lag < 1:
+            raise ValueError(f"held-out reliability needs size >= 2, every >= 2, lag >= 1 (got {size}, "
+                             f"{every}, {lag})")
+        self.bank = bank
+        self.size, self.every, self.lag = int(size), int(every), int(lag)
+        self.z, self.accurate_ratio = float(z), float(accurate_ratio)
+        self.min_count = max(2, self.size // 2)
+        d, a = bank.latent_dim, bank.action_dim
+        capacity = max(1, int(initial_capacity))
+        self.latent = torch.zeros((capacity, self.size, d))
+        self.action = torch.zeros((capacity, self.size, a))
+        self.reward = torch.zeros((capacity, self.size))
+        self.next_latent = torch.zeros((capacity, self.size, d))
+        self.written = np.zeros(capacity, dtype=np.int64)
+        self.seen = np.zeros(capacity, dtype=np.int64)
+        self.updates = np.zeros(capacity, dtype=np.int64)
+        self.snapshot_old = torch.zeros((capacity, bank.num_params))
+        self.snapshot_new = torch.zeros((capacity, bank.num_params))
+        self.trusted = np.zeros(capacity, dtype=bool)
+        self.ratio = np.full(capacity, np.nan)
+        self.progress = np.zeros(capacity)
+
+    # ------------------------------------------------------------------ capacity and node events
+    @property
+    def capacity(self) -> int:
+        return self.written.shape[0]
+
+    def ensure_capacity(self, size: int) -> None:
+        old = self.capacity
+        if size <= old:
+            return
+        new = grown_capacity(old, size)
+        pad = new - old
+
+        def grow(t: torch.Tensor) -> torch.Tensor:
+            return torch.cat([t, torch.zeros((pad, *t.shape[1:]), dtype=t.dtype)])
+
+        self.latent, self.action = grow(self.latent), grow(self.action)
+        self.reward, self.next_latent = grow(self.reward), grow(self.next_latent)
+        self.snapshot_old, self.snapshot_new = grow(self.snapshot_old), grow(self.snapshot_new)
+        self.written = np.concatenate([self.written, np.zeros(pad, np.int64)])
+        self.seen = np.concatenate([self.seen, np.zeros(pad, np.int64)])
+        self.updates = np.concatenate([self.updates, np.zeros(pad, np.int64)])
+        self.trusted = np.concatenate([self.trusted, np.zeros(pad, bool)])
+        self.ratio = np.concatenate([self.ratio, np.full(pad, np.nan)])
+        self.progress = np.concatenate([self.progress, np.zeros(pad)])
+
+    def reset_nodes(self, node_ids: list[int] | np.ndarray) -> None:
+        """Forget the held-out sets and verdicts of these slots; both snapshots start at the bank's current
+        rows (call after the bank has reset the nodes' models)."""
+        ids = np.asarray(node_ids, dtype=np.int64).reshape(-1)
+        if ids.size == 0:
+            return
+        self.ensure_capacity(int(ids.max()) + 1)
+        self.written[ids] = 0
+        self.seen[ids] = 0
+        self.updates[ids] = 0
+        self.trusted[ids] = False
+        self.ratio[ids] = np.nan
+        self.progress[ids] = 0.0
+        rows = self.bank.theta[torch.from_numpy(ids)]
+        self.snapshot_old[ids] = rows
+        self.snapshot_new[ids] = rows
+
+    # ------------------------------------------------------------------ per real transition
+    def route_to_heldout(self, node: int) -> bool:
+        """Count one real transition of ``node``; True when it is the node's every-k-th (held out)."""
+        self.ensure_capacity(node + 1)
+        self.seen[node] += 1
+        return bool(self.seen[node] % self.every == 0)
+
+    def add(self, node: int, phi: torch.Tensor, action: torch.Tensor, reward: float,
+            next_phi: torch.Tensor) -> None:
+        """Put one real transition into ``node``'s held-out ring."""
+        self.ensure_capacity(node + 1)
+        slot = int(self.written[node] % self.size)
+        self.latent[node, slot] = phi.reshape(-1)
+        self.action[node, slot] = action.reshape(-1)
+        self.reward[node, slot] = float(reward)
+        self.next_latent[node, slot] = next_phi.reshape(-1)
+        self.written[node] += 1
+
+    def after_update(self, nodes: np.ndarray | list[int]) -> None:
+        """Count one real model update per node, rotate its snapshots every ``lag`` updates, re-judge it."""
+        ids = np.unique(np.asarray(nodes, dtype=np.int64).reshape(-1))
+        if ids.size == 0:
+            return
+        self.ensure_capacity(int(ids.max()) + 1)
+        self.updates[ids] += 1
+        rotate = ids[self.updates[ids] % self.lag == 0]
+        if rotate.size:
+            index = torch.from_numpy(rotate)
+            self.snapshot_old[index] = self.snapshot_new[index]
+            self.snapshot_new[index] = self.bank.theta[index]
+        self.evaluate(ids)
+
+    @torch.no_grad()
+    def evaluate(self, nodes: np.ndarray | list[int]) -> Verdict:
+        """Re-judge the nodes on their held-out sets (one batched forward of current + snapshot models)."""
+        ids = np.unique(np.asarray(nodes, dtype=np.int64).reshape(-1))
+        self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
+        k, n = ids.size, self.size
+        index = torch.from_numpy(ids)
+        phi = self.latent[index].reshape(k * n, -1)
+        action = self.action[index].reshape(k * n, -1)
+        reward = self.reward[index].reshape(-1)
+        target = self.next_latent[index].reshape(k * n, -1)
+        rows = torch.cat([self.bank.theta[index], self.snapshot_old[index]]).repeat_interleave(n, dim=0)
+        prediction = self.bank.predict_rows(rows, torch.cat([phi, phi]), torch.cat([action, action]))
+        errors = self.bank.errors(prediction.next_latent, prediction.reward, torch.cat([target, target]),
+                                  torch.cat([reward, reward])).double().numpy().reshape(2, k, n)
+        no_change = self.bank.errors(phi, torch.zeros_like(reward), target, reward).double().numpy()
+        mask = np.arange(n)[None, :] < np.minimum(self.written[ids], n)[:, None]
+        verdict = judge(errors[0], errors[1], no_change.reshape(k, n), mask, self.z, self.accurate_ratio,
+                        self.min_count)
+        self.trusted[ids] = verdict.trusted
+        self.ratio[ids] = verdict.ratio
+        self.progress[ids] = verdict.progress
+        return verdict
+
+    # ------------------------------------------------------------------ queries
+    def is_trusted(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
+        ids = np.asarray(nodes, dtype=np.int64).reshape(-1)
+        self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
+        return self.trusted[ids].copy()
+
+    def relative_progress(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
+        """Held-out learning progress / no-change error per node (0 while undefined)."""
+        ids = np.asarray(nodes, dtype=np.int64).reshape(-1)
+        self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
+        return self.progress[ids].copy()
+
+    def share(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
+        """clip(1 − ratio, 0, 1): how much better than "nothing changes" a node's model is (0 if unknown)."""
+        ids = np.asarray(nodes, dtype=np.int64).reshape(-1)
+        self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
+        return np.clip(1.0 - np.nan_to_num(self.ratio[ids], nan=1.0), 0.0, 1.0)
+
+    # ------------------------------------------------------------------ checkpoints
+    def state_dict(self) -> dict[str, torch.Tensor]:
+        return {
+            "latent": self.latent.clone(), "action": self.action.clone(), "reward": self.reward.clone(),
+            "next_latent": self.next_latent.clone(), "written": torch.from_numpy(self.written.copy()),
+            "seen": torch.from_numpy(self.seen.copy()), "updates": torch.from_numpy(self.updates.copy()),
+            "snapshot_old": self.snapshot_old.clone(), "snapshot_new": self.snapshot_new.clone(),
+            "trusted": torch.from_numpy(self.trusted.copy()), "ratio": torch.from_numpy(self.ratio.copy()),
+            "progress": torch.from_numpy(self.progress.copy()),
+        }
+
+    def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
+        if state["latent"].shape[1] != self.size:
+            raise ValueError("held-out reliability checkpoint has a different held-out size")
+        for name in ("latent", "action", "reward", "next_latent", "snapshot_old", "snapshot_new"):
+            setattr(self, name, state[name].clone())
+        for name in ("written", "seen", "updates", "trusted", "ratio", "progress"):
+            setattr(self, name, state[name].numpy().copy())

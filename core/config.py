@@ -180,7 +180,7 @@ class DualConfig:
     lp_sigma: int = 40
     """σ: window of recent prediction errors per node (Eq. 8)."""
     lp_window: int = 20
-    """W: history of window means used by LP (Eq. 9); also the lag (model updates) of held-out reliability."""
+    """W: history of window means used by LP (Eq. 9)."""
     lp_normalise: bool = True
     """Divide LP by the max of the history of means (released code)."""
     lp_warmup: Literal["zero_oldest", "unreliable"] = "zero_oldest"
@@ -190,11 +190,13 @@ class DualConfig:
     """Prediction error as norms (released code) or squared norms (paper Eq. 8)."""
     reliability: Literal["lp", "heldout"] = "heldout"
     """Arbitration's reliability: LP ≥ 0 of the error stream (Eq. 9, paper) or held-out error and progress."""
-    heldout_size: int = 16
+    heldout_size: int = 48
     """Held-out transitions kept per node for ``reliability = heldout`` (its newest ones, a ring)."""
     heldout_every: int = 4
     """Every k-th real transition of a node goes to its held-out set instead of its training data."""
-    reliability_z: float = 2.0
+    reliability_lag: int = 100
+    """Model updates between two parameter snapshots; held-out progress compares with one L..2L updates old."""
+    reliability_z: float = 3.0
     """Margin, in standard errors of the paired held-out difference, for "improving" and "worsening"."""
     accurate_ratio: float = 0.5
     """A model is accurate when its held-out error is at most this share of the no-change predictor's."""
@@ -217,7 +219,9 @@ class DualConfig:
     """A termination head on each local model (BCE on the real ``terminated``) for imagined ``done`` flags."""
     model_batch: int = 16
     """Samples per local-model update: the new transition and the node's recent ones (paper, released: 1)."""
-    new_node_model: Literal["fresh", "parent"] = "fresh"
+    model_memory: int = 256
+    """Real transitions kept per node; each update samples ``model_batch − 1`` of them (0: the newest)."""
+    new_node_model: Literal["fresh", "parent"] = "parent"
     """A new ITM node's model: freshly initialised (released code) or copied from its parent node."""
     refit_every: int = 25
     """Refit the local models every N real steps on ``refit_batch`` replayed transitions re-encoded by the
@@ -348,6 +352,8 @@ def _paper_dual() -> DualConfig:
         model_target="absolute",
         model_termination=False,
         model_batch=1,
+        model_memory=0,
+        new_node_model="fresh",
         refit_every=0,
         plan_lr=1e-3,
         plan_optimiser="sgd",
@@ -541,6 +547,7 @@ _POSITIVE_INTS = (
     "dual.refit_batch",
     "dual.heldout_size",
     "dual.heldout_every",
+    "dual.reliability_lag",
 )
 _NON_NEGATIVE = (
     "run.seed",
@@ -556,6 +563,7 @@ _NON_NEGATIVE = (
     "dual.cmc_horizon",
     "dual.refit_every",
     "dual.region_prune_after",
+    "dual.model_memory",
     "dual.reliability_z",
     "dual.accurate_ratio",
 )

@@ -281,6 +281,8 @@ class ModelBank:
         reward = torch.as_tensor(reward, dtype=torch.float32).reshape(-1)
         if ids.numel() != phi.shape[0]:
             raise ValueError(f"update got {ids.numel()} node ids for {phi.shape[0]} samples")
+        if bool((ids == ids[0]).all()):
+            return self._update_one_node(int(ids[0]), phi, action, next_phi, reward, terminated)
         if ids.numel() == 1:
             unique, inverse, counts = ids, torch.zeros(1, dtype=torch.int64), torch.ones(1, dtype=torch.int64)
         else:
@@ -322,6 +324,62 @@ class ModelBank:
             grad[:, self._slices["bd"]] = g_done.unsqueeze(-1)
         if batch > 1:  # sum the per-sample gradients of each node (rows follow ``unique``'s order)
             grad = torch.zeros((unique.numel(), self.num_params)).index_add_(0, inverse, grad)
+        self._adam_step(unique, rows, grad)
+        return errors
+
+    def _update_one_node(
+        self,
+        node: int,
+        phi: torch.Tensor,
+        action: torch.Tensor,
+        next_phi: torch.Tensor,
+        reward: torch.Tensor,
+        terminated: torch.Tensor | None,
+    ) -> torch.Tensor:
+        """`update` when every sample belongs to one node (the per-step case): plain matrix products with that
+        node's parameters, the gradient of the mean loss summed by ``x.T @ g``; the same step as the general
+        path."""
+        unique = torch.tensor([node])
+        rows = self.theta.index_select(0, unique)
+        p = {k: v[0] for k, v in self._split(rows).items()}
+        x = torch.cat([phi, action], dim=-1)
+        h = torch.tanh(x @ p["w1"] + p["b1"])
+        out_latent = h @ p["wm"] + p["bm"]
+        out_reward = h @ p["wr"][:, 0] + p["br"][0]
+        if self.output_activation == "released":
+            pred_latent, pred_reward = torch.sigmoid(out_latent), torch.tanh(out_reward)
+        else:
+            pred_latent, pred_reward = out_latent, out_reward
+        if self.target == "delta":
+            pred_latent = phi + pred_latent
+        d_latent = pred_latent - next_phi
+        d_reward = pred_reward - reward
+        if self.error_norm == "squared":
+            errors = (d_latent * d_latent).sum(-1) + d_reward * d_reward
+        else:
+            errors = d_latent.norm(dim=-1) + d_reward.abs()
+        weight = 2.0 / phi.shape[0]
+        g_latent = weight * d_latent
+        g_reward = weight * d_reward
+        if self.output_activation == "released":
+            g_latent = g_latent * pred_latent * (1.0 - pred_latent)
+            g_reward = g_reward * (1.0 - pred_reward * pred_reward)
+        g_hidden = g_latent @ p["wm"].T + g_reward.unsqueeze(-1) * p["wr"][:, 0]
+        if self.termination:
+            done = torch.zeros(phi.shape[0]) if terminated is None else _as_batch(terminated).reshape(-1)
+            g_done = (torch.sigmoid(h @ p["wd"][:, 0] + p["bd"][0]) - done) * (weight * 0.5)
+            g_hidden = g_hidden + g_done.unsqueeze(-1) * p["wd"][:, 0]
+        g_hidden = g_hidden * (1.0 - h * h)
+        grad = torch.empty((1, self.num_params))
+        grad[0, self._slices["w1"]] = (x.T @ g_hidden).reshape(-1)
+        grad[0, self._slices["b1"]] = g_hidden.sum(0)
+        grad[0, self._slices["wm"]] = (h.T @ g_latent).reshape(-1)
+        grad[0, self._slices["bm"]] = g_latent.sum(0)
+        grad[0, self._slices["wr"]] = h.T @ g_reward
+        grad[0, self._slices["br"]] = g_reward.sum()
+        if self.termination:
+            grad[0, self._slices["wd"]] = h.T @ g_done
+            grad[0, self._slices["bd"]] = g_done.sum()
         self._adam_step(unique, rows, grad)
         return errors
 

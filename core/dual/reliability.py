@@ -11,9 +11,13 @@ noise:
 
 - every ``every``-th real transition of a node goes to the node's **held-out set** (a ring of ``size``) and is
   never trained on;
-- the node's parameters are **snapshotted** every ``lag`` (= W) real updates; the progress is the *paired*
-  difference, on the same held-out samples, between the error of the snapshot two rotations back (between
-  W and 2W updates old) and the error of the current model: the sample-to-sample spread cancels;
+- the node's parameters are **snapshotted** every ``lag`` (L) real updates into a ring of `SNAPSHOTS`; the
+  progress is the *paired* difference, on the same held-out samples, between the error of the snapshot
+  taken one rotation before the newest (between L and 2L updates old) and the error of the current model:
+  the sample-to-sample spread cancels. The oldest snapshot in the ring (up to `SNAPSHOTS` · L updates old)
+  is compared too, since a slow change is significant only over a longer span. Both are undefined until
+  two snapshots exist, i.e. for the first 2L updates of a node, so a young model is never "improving"
+  merely for having left its random initialisation;
 - the current model's held-out error is compared with the **no-change predictor** (φ̂′ = φ, r̂ = 0) on the same
   samples, which makes the figures scale-free: ``ratio`` = model error / no-change error.
 
@@ -27,10 +31,10 @@ standard error s,
 - trusted = improving, or accurate and not worsening.
 
 A region whose model cannot learn (random outcomes) has a ratio that stays above the accurate level and no
-progress beyond its standard error, so it is not trusted. ``progress`` = d̄ / no-change error is the
-scale-free learning progress the repaired intrinsic reward uses; ``share`` = clip(1 − ratio, 0, 1) gates
-imagination. All per-node state is stacked ``[capacity, ...]`` and `evaluate` handles any set of nodes in one
-batched forward of the bank (gather + ``bmm``), never a loop over nodes.
+progress beyond its standard error, so it is not trusted. The progress d̄ itself (`progress_of`, in error
+units) is what the repaired intrinsic reward uses (`LocalWorldModels.intrinsic_reward`); ``share`` =
+clip(1 − ratio, 0, 1) gates imagination. All per-node state is stacked ``[capacity, ...]`` and `evaluate`
+handles any set of nodes in one batched forward of the bank (gather + ``bmm``), never a loop over nodes.
 """
 
 from __future__ import annotations
@@ -43,6 +47,12 @@ import torch
 from core.dual.capacity import grown_capacity
 from core.dual.model_bank import ModelBank
 
+EVALUATE_EVERY = 4
+"""A node is re-judged every this many of its real updates (and whenever `evaluate` is called)."""
+
+SNAPSHOTS = 4
+"""Parameter snapshots kept per node (one every L updates): comparisons reach L..2L and up to 4L updates back."""
+
 
 @dataclass(frozen=True)
 class Verdict:
@@ -52,48 +62,70 @@ class Verdict:
     ratio: np.ndarray
     """Mean held-out error of the current model / that of the no-change predictor (NaN: undefined)."""
     progress: np.ndarray
-    """Paired mean error decrease since the snapshot, divided by the no-change error (0: undefined)."""
+    """Paired mean error decrease since the recent snapshot, in error units (0: undefined)."""
     standard_error: np.ndarray
-    """Standard error of that paired mean, in the same units."""
+    """Standard error of that paired mean, in the same units (0: undefined)."""
+
+
+def _paired(
+    before: np.ndarray, now: np.ndarray, mask: np.ndarray, count: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard error of the per-sample error decrease ``before − now`` over the filled slots."""
+    safe = np.maximum(count, 1)
+    diff = np.where(mask, before - now, 0.0)
+    mean = diff.sum(axis=1) / safe
+    spread = np.where(mask, diff - mean[:, None], 0.0)
+    variance = (spread * spread).sum(axis=1) / np.maximum(count - 1, 1)
+    return mean, np.sqrt(variance / safe)
 
 
 def judge(
     error_now: np.ndarray,
-    error_before: np.ndarray,
+    error_before: np.ndarray | list[np.ndarray],
     error_no_change: np.ndarray,
     mask: np.ndarray,
     z: float,
     accurate_ratio: float,
     min_count: int,
+    comparable: np.ndarray | None = None,
 ) -> Verdict:
     """The reliability verdict for k nodes from their held-out errors ``[k, n]`` (``mask``: filled slots).
 
-    ``error_now``: the current model; ``error_before``: the snapshot W..2W updates back; ``error_no_change``:
-    φ̂′ = φ, r̂ = 0. See the module docstring for the rule.
+    ``error_now``: the current model; ``error_before``: one snapshot's errors, or a list of them (the first is
+    the recent snapshot whose difference is the reported progress, the others older ones — a slow change is
+    significant over a longer span); ``error_no_change``: φ̂′ = φ, r̂ = 0. ``comparable`` (default all) marks
+    the nodes whose snapshots exist; elsewhere progress is undefined: neither improving nor worsening,
+    progress 0. Improving: any snapshot's difference exceeds z standard errors (and ratio < 1); worsening:
+    any falls below −z standard errors. See the module docstring for the rule.
     """
+    befores = error_before if isinstance(error_before, list) else [error_before]
     mask = mask.astype(bool)
     count = mask.sum(axis=1)
     safe = np.maximum(count, 1)
     now = np.where(mask, error_now, 0.0).sum(axis=1) / safe
     no_change = np.where(mask, error_no_change, 0.0).sum(axis=1) / safe
-    diff = np.where(mask, error_before - error_now, 0.0)
-    mean_diff = diff.sum(axis=1) / safe
-    spread = np.where(mask, diff - mean_diff[:, None], 0.0)
-    variance = (spread * spread).sum(axis=1) / np.maximum(count - 1, 1)
-    standard_error = np.sqrt(variance / safe)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(no_change > 0, now / no_change, np.where(now > 0, np.inf, 0.0))
-        scale = np.where(no_change > 0, no_change, 1.0)
     enough = count >= max(2, min_count)
-    improving = (mean_diff > z * standard_error) & (mean_diff > 0) & (ratio < 1.0)
-    worsening = mean_diff < -z * standard_error
+    paired = enough if comparable is None else enough & comparable
+    improving = np.zeros(count.shape, dtype=bool)
+    worsening = np.zeros(count.shape, dtype=bool)
+    progress = standard_error = np.zeros(count.shape)
+    for index, before in enumerate(befores):
+        mean, se = _paired(before, error_now, mask, count)
+        improving |= (mean > z * se) & (mean > 0)
+        worsening |= mean < -z * se
+        if index == 0:
+            progress, standard_error = mean, se
+    improving &= paired & (ratio < 1.0)
+    worsening &= paired
     accurate = ratio <= accurate_ratio
     trusted = enough & (improving | (accurate & ~worsening))
     return Verdict(
         trusted=trusted,
         ratio=np.where(enough, ratio, np.nan),
-        progress=np.where(enough, mean_diff / scale, 0.0),
-        standard_error=np.where(enough, standard_error / scale, 0.0),
+        progress=np.where(paired, progress, 0.0),
+        standard_error=np.where(paired, standard_error, 0.0),
     )
 
 
@@ -126,11 +158,12 @@ class HeldOutReliability:
         self.written = np.zeros(capacity, dtype=np.int64)
         self.seen = np.zeros(capacity, dtype=np.int64)
         self.updates = np.zeros(capacity, dtype=np.int64)
-        self.snapshot_old = torch.zeros((capacity, bank.num_params))
-        self.snapshot_new = torch.zeros((capacity, bank.num_params))
+        self.snapshots = torch.zeros((SNAPSHOTS, capacity, bank.num_params))
+        self.taken = np.zeros(capacity, dtype=np.int64)
         self.trusted = np.zeros(capacity, dtype=bool)
         self.ratio = np.full(capacity, np.nan)
         self.progress = np.zeros(capacity)
+        self.standard_error = np.zeros(capacity)
 
     # ------------------------------------------------------------------ capacity and node events
     @property
@@ -149,17 +182,19 @@ class HeldOutReliability:
 
         self.latent, self.action = grow(self.latent), grow(self.action)
         self.reward, self.next_latent = grow(self.reward), grow(self.next_latent)
-        self.snapshot_old, self.snapshot_new = grow(self.snapshot_old), grow(self.snapshot_new)
+        extra = torch.zeros((SNAPSHOTS, pad, self.snapshots.shape[2]))
+        self.snapshots = torch.cat([self.snapshots, extra], dim=1)
+        self.taken = np.concatenate([self.taken, np.zeros(pad, np.int64)])
         self.written = np.concatenate([self.written, np.zeros(pad, np.int64)])
         self.seen = np.concatenate([self.seen, np.zeros(pad, np.int64)])
         self.updates = np.concatenate([self.updates, np.zeros(pad, np.int64)])
         self.trusted = np.concatenate([self.trusted, np.zeros(pad, bool)])
         self.ratio = np.concatenate([self.ratio, np.full(pad, np.nan)])
         self.progress = np.concatenate([self.progress, np.zeros(pad)])
+        self.standard_error = np.concatenate([self.standard_error, np.zeros(pad)])
 
     def reset_nodes(self, node_ids: list[int] | np.ndarray) -> None:
-        """Forget the held-out sets and verdicts of these slots; both snapshots start at the bank's current
-        rows (call after the bank has reset the nodes' models)."""
+        """Forget the held-out sets, snapshots and verdicts of these slots."""
         ids = np.asarray(node_ids, dtype=np.int64).reshape(-1)
         if ids.size == 0:
             return
@@ -170,9 +205,8 @@ class HeldOutReliability:
         self.trusted[ids] = False
         self.ratio[ids] = np.nan
         self.progress[ids] = 0.0
-        rows = self.bank.theta[torch.from_numpy(ids)]
-        self.snapshot_old[ids] = rows
-        self.snapshot_new[ids] = rows
+        self.standard_error[ids] = 0.0
+        self.taken[ids] = 0
 
     # ------------------------------------------------------------------ per real transition
     def route_to_heldout(self, node: int) -> bool:
@@ -202,9 +236,11 @@ class HeldOutReliability:
         rotate = ids[self.updates[ids] % self.lag == 0]
         if rotate.size:
             index = torch.from_numpy(rotate)
-            self.snapshot_old[index] = self.snapshot_new[index]
-            self.snapshot_new[index] = self.bank.theta[index]
-        self.evaluate(ids)
+            self.snapshots[torch.from_numpy(self.taken[rotate] % SNAPSHOTS), index] = self.bank.theta[index]
+            self.taken[rotate] += 1
+        due = ids[self.updates[ids] % EVALUATE_EVERY == 0]
+        if due.size:
+            self.evaluate(due)
 
     @torch.no_grad()
     def evaluate(self, nodes: np.ndarray | list[int]) -> Verdict:
@@ -217,17 +253,23 @@ class HeldOutReliability:
         action = self.action[index].reshape(k * n, -1)
         reward = self.reward[index].reshape(-1)
         target = self.next_latent[index].reshape(k * n, -1)
-        rows = torch.cat([self.bank.theta[index], self.snapshot_old[index]]).repeat_interleave(n, dim=0)
-        prediction = self.bank.predict_rows(rows, torch.cat([phi, phi]), torch.cat([action, action]))
-        errors = self.bank.errors(prediction.next_latent, prediction.reward, torch.cat([target, target]),
-                                  torch.cat([reward, reward])).double().numpy().reshape(2, k, n)
+        taken = self.taken[ids]
+        recent = torch.from_numpy((taken - 2) % SNAPSHOTS)  # taken one rotation before the newest
+        oldest = torch.from_numpy(np.where(taken >= SNAPSHOTS, taken % SNAPSHOTS, 0))
+        snapshots = self.snapshots
+        rows = torch.cat([self.bank.theta[index], snapshots[recent, index], snapshots[oldest, index]])
+        prediction = self.bank.predict_rows(rows.repeat_interleave(n, dim=0), phi.repeat(3, 1),
+                                            action.repeat(3, 1))
+        errors = self.bank.errors(prediction.next_latent, prediction.reward, target.repeat(3, 1),
+                                  reward.repeat(3)).double().numpy().reshape(3, k, n)
         no_change = self.bank.errors(phi, torch.zeros_like(reward), target, reward).double().numpy()
         mask = np.arange(n)[None, :] < np.minimum(self.written[ids], n)[:, None]
-        verdict = judge(errors[0], errors[1], no_change.reshape(k, n), mask, self.z, self.accurate_ratio,
-                        self.min_count)
+        verdict = judge(errors[0], [errors[1], errors[2]], no_change.reshape(k, n), mask, self.z,
+                        self.accurate_ratio, self.min_count, comparable=taken >= 2)
         self.trusted[ids] = verdict.trusted
         self.ratio[ids] = verdict.ratio
         self.progress[ids] = verdict.progress
+        self.standard_error[ids] = verdict.standard_error
         return verdict
 
     # ------------------------------------------------------------------ queries
@@ -236,8 +278,8 @@ class HeldOutReliability:
         self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
         return self.trusted[ids].copy()
 
-    def relative_progress(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
-        """Held-out learning progress / no-change error per node (0 while undefined)."""
+    def progress_of(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
+        """Held-out progress per node (paired error decrease since the recent snapshot; 0 while undefined)."""
         ids = np.asarray(nodes, dtype=np.int64).reshape(-1)
         self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
         return self.progress[ids].copy()
@@ -254,15 +296,17 @@ class HeldOutReliability:
             "latent": self.latent.clone(), "action": self.action.clone(), "reward": self.reward.clone(),
             "next_latent": self.next_latent.clone(), "written": torch.from_numpy(self.written.copy()),
             "seen": torch.from_numpy(self.seen.copy()), "updates": torch.from_numpy(self.updates.copy()),
-            "snapshot_old": self.snapshot_old.clone(), "snapshot_new": self.snapshot_new.clone(),
+            "snapshots": self.snapshots.clone(), "taken": torch.from_numpy(self.taken.copy()),
             "trusted": torch.from_numpy(self.trusted.copy()), "ratio": torch.from_numpy(self.ratio.copy()),
             "progress": torch.from_numpy(self.progress.copy()),
+            "standard_error": torch.from_numpy(self.standard_error.copy()),
         }
 
     def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
         if state["latent"].shape[1] != self.size:
             raise ValueError("held-out reliability checkpoint has a different held-out size")
-        for name in ("latent", "action", "reward", "next_latent", "snapshot_old", "snapshot_new"):
+        for name in ("latent", "action", "reward", "next_latent", "snapshots"):
             setattr(self, name, state[name].clone())
-        for name in ("written", "seen", "updates", "trusted", "ratio", "progress"):
+        for name in ("written", "seen", "updates", "taken", "trusted", "ratio", "progress",
+                     "standard_error"):
             setattr(self, name, state[name].numpy().copy())

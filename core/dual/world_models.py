@@ -13,8 +13,10 @@ always, temporal-only learning progress.
 
 Options (docs/dual-system.md, "Mechanisms"; each off in the ``paper`` profile):
 
-- ``model_batch > 1``: each node also keeps its last ``model_batch − 1`` real transitions and the Eq. 5 step
-  uses them together with the new one (the mean loss over that small per-node minibatch); the LP error is
+- ``model_batch > 1``: each Eq. 5 step uses the new transition and ``model_batch − 1`` older real transitions
+  of the node (the mean loss over that small per-node minibatch): its newest ones, or, with
+  ``model_memory = M``, a uniform sample of its M newest (a model fitted to a sliding window of its last
+  few transitions forgets the rest of its region and is judged better on anything recent); the LP error is
   always the new transition's alone.
 - ``region_space = normalised``: the map lives in φ / s, s the latent's running RMS spread
   (`core.dual.itm_resolution.LatentScale`), so e_max is in units of s; ``region_prune_after = N`` removes
@@ -109,13 +111,18 @@ class LocalWorldModels:
         )
         self.heldout = (
             HeldOutReliability(self.bank, size=dual.heldout_size, every=dual.heldout_every,
-                               lag=dual.lp_window, z=dual.reliability_z, accurate_ratio=dual.accurate_ratio,
+                               lag=dual.reliability_lag, z=dual.reliability_z,
+                               accurate_ratio=dual.accurate_ratio,
                                initial_capacity=capacity)
             if needs_heldout(dual) else None
         )
         if self.heldout is not None:
             self.heldout.reset_nodes(np.arange(capacity))
-        self.memory_size = max(0, dual.model_batch - 1)
+        self.unit = self.scale if self.scale is not None else LatentScale(latent_dim)
+        """The latent's running RMS spread s (`LatentScale`, slow to shrink): the repaired r_int's unit."""
+        self.sample_size = max(0, dual.model_batch - 1)
+        """Older transitions of the node in each Eq. 5 step, beside the new one."""
+        self.memory_size = max(self.sample_size, dual.model_memory) if self.sample_size else 0
         self._memory = (
             _NodeMemory(self.memory_size, latent_dim, action_dim, capacity) if self.memory_size else None
         )
@@ -205,7 +212,7 @@ class LocalWorldModels:
         reward = torch.tensor([float(reward_ext)])
         done = torch.tensor([float(terminated)])
         held_out = self.heldout is not None and self.heldout.route_to_heldout(node)
-        old = self._memory.get(node) if self._memory is not None and self._memory.count(node) else None
+        old = self._recent(node)
         if held_out:
             before = self.bank.predict(torch.tensor([node]), phi, action)
             error = float(self.bank.errors(before.next_latent, before.reward, next_phi, reward)[0])
@@ -227,23 +234,39 @@ class LocalWorldModels:
             if self._memory is not None:
                 self._memory.add(node, phi[0], action[0], float(reward_ext), next_phi[0], float(terminated))
         self.lp.record([node], [error])
+        if self.unit is not self.scale:
+            self.unit.observe(phi[0])
         if self.heldout is not None and (old is not None or not held_out):
             self.heldout.after_update([node])
         return TransitionFeedback(error=error, intrinsic_reward=self.intrinsic_reward(node, next_phi))
+
+    def _recent(self, node: int) -> tuple[torch.Tensor, ...] | None:
+        """Up to ``model_batch − 1`` of the node's stored transitions: the newest (``model_memory`` 0), or a
+        uniform sample of the ``model_memory`` newest (drawn with the bank's generator)."""
+        if self._memory is None or self._memory.count(node) == 0:
+            return None
+        stored = self._memory.get(node)
+        count = stored[0].shape[0]
+        if count <= self.sample_size:
+            return stored
+        rows = torch.randperm(count, generator=self.bank.generator)[: self.sample_size]
+        return tuple(column[rows] for column in stored)
 
     def intrinsic_reward(self, node: int, next_phi: torch.Tensor) -> float:
         """r_int of a transition from region ``node`` to latent ``next_phi`` (Alg. 2 line 22, or the repair).
 
         ``intrinsic_region``: source → the LP of ``node``; destination → the LP of the region ``next_phi``
         falls in (the consequence of the action). ``intrinsic_signal``: neg_lp → −c·LP (Eq. 9, released
-        normalisation); progress → +c·(held-out progress / no-change error).
+        normalisation); progress → +c·(held-out progress) / s, s the latent's RMS spread (`unit`; squared
+        with squared Eq. 8 errors).
         """
         cfg = self.config
         region = node if cfg.intrinsic_region == "source" else self.nearest(next_phi)
         if cfg.intrinsic_signal == "neg_lp":
             return float(self.lp.intrinsic_reward(region)[0])
         assert self.heldout is not None
-        return float(cfg.intrinsic_scale * self.heldout.relative_progress(region)[0])
+        unit = self.unit.scale if cfg.error_norm == "l2" else self.unit.scale**2
+        return float(cfg.intrinsic_scale * self.heldout.progress_of(region)[0] / unit)
 
     def learn_batch(
         self, phi: torch.Tensor, action: torch.Tensor, reward_ext: torch.Tensor, next_phi: torch.Tensor
@@ -319,6 +342,8 @@ class LocalWorldModels:
         if self.heldout is not None:
             state["heldout"] = self.heldout.state_dict()
         state["generator"] = {"state": self.bank.generator.get_state()}
+        if self.unit is not self.scale:
+            state["unit"] = self.unit.state_dict()
         return state
 
     def load_state_dict(self, state: dict[str, dict[str, torch.Tensor]]) -> None:
@@ -336,6 +361,8 @@ class LocalWorldModels:
         if self.heldout is not None:
             self.heldout.load_state_dict(state["heldout"])
         self.bank.generator.set_state(state["generator"]["state"])
+        if self.unit is not self.scale and "unit" in state:
+            self.unit.load_state_dict(state["unit"])
 
 
 class _NodeMemory:

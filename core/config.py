@@ -195,7 +195,7 @@ class DualConfig:
     heldout_every: int = 4
     """Every k-th real transition of a node goes to its held-out set instead of its training data."""
     reliability_lag: int = 100
-    """Model updates between two parameter snapshots; held-out progress compares with one L..2L updates old."""
+    """Model updates between parameter snapshots; held-out progress compares with one L..2L updates old."""
     reliability_z: float = 3.0
     """Margin, in standard errors of the paired held-out difference, for "improving" and "worsening"."""
     accurate_ratio: float = 0.5
@@ -237,7 +237,7 @@ class DualConfig:
     """K gradient steps of plan optimisation (Eq. 7)."""
     plan_lr: float = 0.1
     """α_plan of Eq. 7 (paper: 1e-3); adam, normalised: a step length in action units."""
-    plan_optimiser: Literal["sgd", "normalised", "adam"] = "adam"
+    plan_optimiser: Literal["sgd", "normalised", "adam"] = "normalised"
     """Eq. 7's step: plain gradient (paper), the gradient scaled to length α, or Adam on the plan."""
     plan_clip: Literal["executed", "every_step"] = "every_step"
     """Clip only the executed action to [−1, 1] (paper) or every plan action after every step (projection)."""

@@ -51,7 +51,12 @@ EVALUATE_EVERY = 4
 """A node is re-judged every this many of its real updates (and whenever `evaluate` is called)."""
 
 SNAPSHOTS = 4
-"""Parameter snapshots kept per node (one every L updates): comparisons reach L..2L and up to 4L updates back."""
+"""Parameter snapshots kept per node (one every L updates): comparisons reach L..2L and up to 4L back."""
+
+
+def share_from_ratio(ratio: np.ndarray | float) -> np.ndarray:
+    """clip(1 − ratio, 0, 1): how much better than "nothing changes" a model is (``imagination_gate``)."""
+    return np.clip(1.0 - np.asarray(ratio, dtype=np.float64), 0.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -285,10 +290,10 @@ class HeldOutReliability:
         return self.progress[ids].copy()
 
     def share(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
-        """clip(1 − ratio, 0, 1): how much better than "nothing changes" a node's model is (0 if unknown)."""
+        """`share_from_ratio` of each node's held-out ratio (0 while undefined)."""
         ids = np.asarray(nodes, dtype=np.int64).reshape(-1)
         self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
-        return np.clip(1.0 - np.nan_to_num(self.ratio[ids], nan=1.0), 0.0, 1.0)
+        return share_from_ratio(np.nan_to_num(self.ratio[ids], nan=1.0))
 
     # ------------------------------------------------------------------ checkpoints
     def state_dict(self) -> dict[str, torch.Tensor]:

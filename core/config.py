@@ -169,7 +169,9 @@ class DualConfig:
     """ITM mapping resolution e_max (Section 4.1.1: 6 in latent units); in units of the latent's RMS spread
     when ``region_space`` is normalised (default 1)."""
     region_space: Literal["latent", "normalised"] = "normalised"
-    """Where the ITM lives: the raw latent (paper) or the latent over its running RMS spread (scale-free)."""
+    """Where the ITM lives: the raw latent (paper) or the latent divided by its running RMS spread."""
+    model_space: Literal["latent", "normalised"] = "normalised"
+    """What the local models read and predict: the raw latent (paper) or (φ − mean) / RMS spread s, in s."""
     region_prune_after: int = 3000
     """Remove an ITM node that has not been the best match for this many states (0: never, paper)."""
     e_max_relative: float | None = None
@@ -344,6 +346,7 @@ def _paper_dual() -> DualConfig:
     return DualConfig(
         e_max=6.0,
         region_space="latent",
+        model_space="latent",
         region_prune_after=0,
         reliability="lp",
         intrinsic_signal="neg_lp",
@@ -599,6 +602,9 @@ def check_config(config: Config) -> None:
     for key in ("agent.critic_lr", "agent.actor_lr", "dual.model_lr", "dual.e_max", "dual.plan_lr"):
         if value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
+    if config.dual.model_space == "normalised" and config.dual.model_output == "released":
+        raise ConfigError("bad value for dual.model_space: normalised needs dual.model_output=linear "
+                          "(a sigmoid output is in the raw latent's units)")
     if config.dual.model_target == "delta" and config.dual.model_output == "released":
         raise ConfigError("bad value for dual.model_target: delta needs dual.model_output=linear "
                           "(a sigmoid output cannot be a change)")

@@ -109,13 +109,18 @@ class LatentScale:
 
     @property
     def scale(self) -> float:
-        """s (1 before any spread has been seen)."""
-        return self._scale if self._scale > 0.0 else 1.0
+        """s (1 before two latents have been seen)."""
+        return self._scale if self.seen >= 2 and self._scale > 0.0 else 1.0
 
     def _spread(self) -> float:
         if self._weight <= 0.0 or self._square <= 0.0:
             return 0.0
         return float(np.sqrt(self._square / self._weight))
+
+    @property
+    def mean(self) -> np.ndarray:
+        """μ, the running mean (zeros before any latent)."""
+        return self._mean / self._weight if self._weight > 0.0 else np.zeros_like(self._mean)
 
     @property
     def warm(self) -> bool:

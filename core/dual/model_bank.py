@@ -26,9 +26,14 @@ Options (see docs/dual-system.md):
   norms ‖M − φ′‖₂ + |R − r|). The prediction error of a sample is computed BEFORE its update and
   returned by `update`, ready for the learning-progress tracker.
 - ``target="absolute"`` (Eq. 5 as printed: the network outputs φ̂′) or ``"delta"`` (``dual.model_target``,
-  not in the paper: φ̂′ = φ + M(φ, a), the network outputs the change). A latent that moves little per step
-  is then "nothing changes" at initialisation instead of a random point, and the hidden layer spends its 20
-  units on the change rather than on copying φ through tanh (docs/dual-system.md, "World models").
+  not in the paper: φ̂′ = φ + M(φ, a), the network outputs the change, and the reward head starts at 0). The
+  hidden layer spends its 20 units on the change rather than on copying φ through tanh (docs/dual-system.md,
+  "World models").
+- ``latent_scale`` s and ``latent_offset`` μ (``dual.model_space = normalised``, set by the owner): the
+  network reads (φ − μ) / s and its latent head is in units of s (φ̂′ = φ + s·M for delta, μ + s·M for
+  absolute), so what it has learnt, its initial outputs and Adam's step (about α per weight) are relative to
+  the latent's spread, not to its units: an untrained encoder's latents move by 0.005 per step, a trained
+  one's by 0.5, and a step of 1e-3 on raw outputs is a noise floor of a few 0.01 in latent units.
 - ``termination=True`` (``dual.model_termination``, not in the paper): a third head, a logit of "this
   transition ended the episode", trained with binary cross-entropy beside Eq. 5 (its own output weights; the
   hidden layer is shared). Imagined transitions take their ``done`` flag from it. Eq. 8 errors never include
@@ -109,6 +114,11 @@ class ModelBank:
         self.error_norm: ErrorNorm = error_norm
         self.target: ModelTarget = target
         self.termination = bool(termination)
+        self.latent_scale = 1.0
+        """s: the models read (φ − μ) / s and output changes (or latents) in units of s — set by the owner
+        (``dual.model_space = normalised``: the latent's running RMS spread), 1 for the raw latent."""
+        self.latent_offset = torch.zeros(latent_dim)
+        """μ of the above (zeros for the raw latent)."""
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)
         in_dim = latent_dim + action_dim
         self._shapes: dict[str, tuple[int, ...]] = {
@@ -181,13 +191,17 @@ class ModelBank:
         self.steps[ids] = 0
 
     def _fresh(self, count: int) -> torch.Tensor:
-        """``nn.Linear`` default init: weights and biases ~ U(−1/√fan_in, 1/√fan_in), flattened."""
+        """``nn.Linear`` default init: weights and biases ~ U(−1/√fan_in, 1/√fan_in), flattened. A delta
+        model's reward head starts at zero (r̂ = 0, as "nothing changes" predicts): a random reward output of
+        ~0.5 would dominate Eq. 8 beside latent changes of 0.005 (an untrained encoder's) for many updates."""
         out = torch.empty((count, self.num_params))
         for k, sl in self._slices.items():
             fan_in = self.latent_dim + self.action_dim if k in ("w1", "b1") else self.hidden
             bound = 1.0 / math.sqrt(fan_in)
             uniform = torch.rand((count, sl.stop - sl.start), generator=self.generator)
             out[:, sl] = (uniform * 2.0 - 1.0) * bound
+            if self.target == "delta" and k in ("wr", "br"):
+                out[:, sl] = 0.0
         return out
 
     # ------------------------------------------------------------------ forward
@@ -195,16 +209,28 @@ class ModelBank:
         self, p: dict[str, torch.Tensor], phi: torch.Tensor, action: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """Per-sample forward with per-sample parameters ``p[k]: [B, ...]``; returns (x, h, φ̂, r̂)."""
-        x = torch.cat([phi, action], dim=-1)
+        x = torch.cat([self._model_input(phi), action], dim=-1)
         h = torch.tanh(torch.bmm(x.unsqueeze(1), p["w1"]).squeeze(1) + p["b1"])
         next_latent = torch.bmm(h.unsqueeze(1), p["wm"]).squeeze(1) + p["bm"]
         reward = (h * p["wr"].squeeze(-1)).sum(-1) + p["br"].squeeze(-1)
         if self.output_activation == "released":
             next_latent = torch.sigmoid(next_latent)
             reward = torch.tanh(reward)
-        if self.target == "delta":
-            next_latent = phi + next_latent
-        return x, h, next_latent, reward
+        return x, h, self._model_output(phi, next_latent), reward
+
+    def _model_input(self, phi: torch.Tensor) -> torch.Tensor:
+        """(φ − μ) / s (φ itself for the raw latent)."""
+        if self.latent_scale == 1.0 and not bool(self.latent_offset.any()):
+            return phi
+        return (phi - self.latent_offset) / self.latent_scale
+
+    def _model_output(self, phi: torch.Tensor, output: torch.Tensor) -> torch.Tensor:
+        """φ̂′ from the latent head's output: φ + s·output (delta) or μ + s·output (absolute)."""
+        if self.latent_scale != 1.0 or bool(self.latent_offset.any()):
+            output = output * self.latent_scale
+            base = phi if self.target == "delta" else self.latent_offset
+            return base + output
+        return phi + output if self.target == "delta" else output
 
     def _done_logit(self, p: dict[str, torch.Tensor], h: torch.Tensor) -> torch.Tensor:
         """The termination head's logit ``[B]`` (zeros without a head)."""
@@ -298,7 +324,7 @@ class ModelBank:
             errors = d_latent.norm(dim=-1) + d_reward.abs()
         # ∂/∂output of Σ_b w_b (‖φ̂_b − φ′_b‖² + (r̂_b − r_b)²), w_b = 1 / count(node of b).
         weight = (2.0 / counts[inverse].to(torch.float32)).unsqueeze(-1)
-        g_latent = weight * d_latent
+        g_latent = weight * d_latent * self.latent_scale  # φ̂′ = base + s·output
         g_reward = weight.squeeze(-1) * d_reward
         if self.output_activation == "released":
             g_latent = g_latent * pred_latent * (1.0 - pred_latent)
@@ -342,7 +368,7 @@ class ModelBank:
         unique = torch.tensor([node])
         rows = self.theta.index_select(0, unique)
         p = {k: v[0] for k, v in self._split(rows).items()}
-        x = torch.cat([phi, action], dim=-1)
+        x = torch.cat([self._model_input(phi), action], dim=-1)
         h = torch.tanh(x @ p["w1"] + p["b1"])
         out_latent = h @ p["wm"] + p["bm"]
         out_reward = h @ p["wr"][:, 0] + p["br"][0]
@@ -350,8 +376,7 @@ class ModelBank:
             pred_latent, pred_reward = torch.sigmoid(out_latent), torch.tanh(out_reward)
         else:
             pred_latent, pred_reward = out_latent, out_reward
-        if self.target == "delta":
-            pred_latent = phi + pred_latent
+        pred_latent = self._model_output(phi, pred_latent)
         d_latent = pred_latent - next_phi
         d_reward = pred_reward - reward
         if self.error_norm == "squared":
@@ -359,7 +384,7 @@ class ModelBank:
         else:
             errors = d_latent.norm(dim=-1) + d_reward.abs()
         weight = 2.0 / phi.shape[0]
-        g_latent = weight * d_latent
+        g_latent = weight * d_latent * self.latent_scale
         g_reward = weight * d_reward
         if self.output_activation == "released":
             g_latent = g_latent * pred_latent * (1.0 - pred_latent)

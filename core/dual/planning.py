@@ -243,6 +243,8 @@ class _PlanModel:
         self.latent_dim = bank.latent_dim
         self.released = bank.output_activation == "released"
         self.delta = bank.target == "delta"
+        self.scale = float(bank.latent_scale)
+        self.offset = bank.latent_offset.double().numpy()
 
     def loss_and_grad(
         self, phi: np.ndarray, plan: np.ndarray, objective: PlanObjective, r_star: float
@@ -252,8 +254,9 @@ class _PlanModel:
         hiddens, latent_grads_act, reward_grads_act, inputs = [], [], [], []
         rewards = np.empty(horizon)
         current = phi
+        s, offset = self.scale, self.offset
         for h in range(horizon):
-            x = np.concatenate([current, plan[h]])
+            x = np.concatenate([(current - offset) / s, plan[h]])
             hidden = np.tanh(x @ self.w1[h] + self.b1[h])
             pre_latent = hidden @ self.wm[h] + self.bm[h]
             pre_reward = hidden @ self.wr[h] + self.br[h]
@@ -266,8 +269,7 @@ class _PlanModel:
                 nxt, reward = pre_latent, pre_reward
                 latent_grads_act.append(None)
                 reward_grads_act.append(1.0)
-            if self.delta:
-                nxt = current + nxt
+            nxt = s * nxt + (current if self.delta else offset)
             inputs.append(x)
             hiddens.append(hidden)
             rewards[h] = reward
@@ -285,9 +287,10 @@ class _PlanModel:
         for h in reversed(range(horizon)):
             d_pre_latent = d_next if latent_grads_act[h] is None else d_next * latent_grads_act[h]
             d_pre_reward = d_rewards[h] * reward_grads_act[h]
-            d_hidden = self.wm[h] @ d_pre_latent + self.wr[h] * d_pre_reward
+            d_hidden = self.wm[h] @ (s * d_pre_latent) + self.wr[h] * d_pre_reward
             d_z = d_hidden * (1.0 - hiddens[h] ** 2)
             d_x = self.w1[h] @ d_z
             grad[h] = d_x[d:]
-            d_next = d_x[:d] + d_next if self.delta else d_x[:d]  # φ̂_{h+1} = φ̂_h + M(·): identity path
+            through_model = d_x[:d] / s  # the model reads (φ̂_h − μ) / s
+            d_next = through_model + d_next if self.delta else through_model  # delta: identity path too
         return float(loss), grad

@@ -93,6 +93,7 @@ def judge(
     accurate_ratio: float,
     min_count: int,
     comparable: np.ndarray | None = None,
+    recent: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> Verdict:
     """The reliability verdict for k nodes from their held-out errors ``[k, n]`` (``mask``: filled slots).
 
@@ -101,7 +102,10 @@ def judge(
     significant over a longer span); ``error_no_change``: φ̂′ = φ, r̂ = 0. ``comparable`` (default all) marks
     the nodes whose snapshots exist; elsewhere progress is undefined: neither improving nor worsening,
     progress 0. Improving: any snapshot's difference exceeds z standard errors (and ratio < 1); worsening:
-    any falls below −z standard errors. See the module docstring for the rule.
+    any falls below −z standard errors. ``recent`` = (model errors, no-change errors, mask), each
+    ``[k, w]``: when given, the ratio is taken over these (the newest transitions, each scored before the
+    model learnt from it) instead of the held-out set, and needs ``min_count`` of them. See the module
+    docstring for the rule.
     """
     befores = error_before if isinstance(error_before, list) else [error_before]
     mask = mask.astype(bool)
@@ -109,10 +113,16 @@ def judge(
     safe = np.maximum(count, 1)
     now = np.where(mask, error_now, 0.0).sum(axis=1) / safe
     no_change = np.where(mask, error_no_change, 0.0).sum(axis=1) / safe
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(no_change > 0, now / no_change, np.where(now > 0, np.inf, 0.0))
     enough = count >= max(2, min_count)
     paired = enough if comparable is None else enough & comparable
+    if recent is not None:
+        recent_mask = recent[2].astype(bool)
+        recent_count = recent_mask.sum(axis=1)
+        now = np.where(recent_mask, recent[0], 0.0).sum(axis=1) / np.maximum(recent_count, 1)
+        no_change = np.where(recent_mask, recent[1], 0.0).sum(axis=1) / np.maximum(recent_count, 1)
+        enough = recent_count >= max(2, min_count)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(no_change > 0, now / no_change, np.where(now > 0, np.inf, 0.0))
     improving = np.zeros(count.shape, dtype=bool)
     worsening = np.zeros(count.shape, dtype=bool)
     progress = standard_error = np.zeros(count.shape)
@@ -146,14 +156,16 @@ class HeldOutReliability:
         z: float = 2.0,
         accurate_ratio: float = 0.5,
         initial_capacity: int = 64,
+        window: int = 40,
     ) -> None:
-        if size < 2 or every < 2 or lag < 1:
-            raise ValueError(f"held-out reliability needs size >= 2, every >= 2, lag >= 1 (got {size}, "
-                             f"{every}, {lag})")
+        if size < 2 or every < 2 or lag < 1 or window < 2:
+            raise ValueError(f"held-out reliability needs size >= 2, every >= 2, lag >= 1, window >= 2 (got "
+                             f"{size}, {every}, {lag}, {window})")
         self.bank = bank
         self.size, self.every, self.lag = int(size), int(every), int(lag)
         self.z, self.accurate_ratio = float(z), float(accurate_ratio)
         self.min_count = max(2, self.size // 2)
+        self.window = int(window)
         d, a = bank.latent_dim, bank.action_dim
         capacity = max(1, int(initial_capacity))
         self.latent = torch.zeros((capacity, self.size, d))
@@ -169,6 +181,9 @@ class HeldOutReliability:
         self.ratio = np.full(capacity, np.nan)
         self.progress = np.zeros(capacity)
         self.standard_error = np.zeros(capacity)
+        self.recent_error = np.zeros((capacity, self.window))
+        self.recent_no_change = np.zeros((capacity, self.window))
+        self.recent_count = np.zeros(capacity, dtype=np.int64)
 
     # ------------------------------------------------------------------ capacity and node events
     @property
@@ -197,6 +212,9 @@ class HeldOutReliability:
         self.ratio = np.concatenate([self.ratio, np.full(pad, np.nan)])
         self.progress = np.concatenate([self.progress, np.zeros(pad)])
         self.standard_error = np.concatenate([self.standard_error, np.zeros(pad)])
+        self.recent_error = np.concatenate([self.recent_error, np.zeros((pad, self.window))])
+        self.recent_no_change = np.concatenate([self.recent_no_change, np.zeros((pad, self.window))])
+        self.recent_count = np.concatenate([self.recent_count, np.zeros(pad, np.int64)])
 
     def reset_nodes(self, node_ids: list[int] | np.ndarray) -> None:
         """Forget the held-out sets, snapshots and verdicts of these slots."""
@@ -212,6 +230,7 @@ class HeldOutReliability:
         self.progress[ids] = 0.0
         self.standard_error[ids] = 0.0
         self.taken[ids] = 0
+        self.recent_count[ids] = 0
 
     # ------------------------------------------------------------------ per real transition
     def route_to_heldout(self, node: int) -> bool:
@@ -219,6 +238,15 @@ class HeldOutReliability:
         self.ensure_capacity(node + 1)
         self.seen[node] += 1
         return bool(self.seen[node] % self.every == 0)
+
+    def record(self, node: int, error: float, no_change: float) -> None:
+        """The Eq. 8 error of a new transition of ``node`` (before the model learnt from it) and the no-change
+        predictor's: the window the verdict's ratio is taken over."""
+        self.ensure_capacity(node + 1)
+        slot = int(self.recent_count[node] % self.window)
+        self.recent_error[node, slot] = error
+        self.recent_no_change[node, slot] = no_change
+        self.recent_count[node] += 1
 
     def add(self, node: int, phi: torch.Tensor, action: torch.Tensor, reward: float,
             next_phi: torch.Tensor) -> None:
@@ -269,8 +297,11 @@ class HeldOutReliability:
                                   reward.repeat(3)).double().numpy().reshape(3, k, n)
         no_change = self.bank.errors(phi, torch.zeros_like(reward), target, reward).double().numpy()
         mask = np.arange(n)[None, :] < np.minimum(self.written[ids], n)[:, None]
+        filled = np.minimum(self.recent_count[ids], self.window)
+        recent_mask = np.arange(self.window)[None, :] < filled[:, None]
+        recent = (self.recent_error[ids], self.recent_no_change[ids], recent_mask)
         verdict = judge(errors[0], [errors[1], errors[2]], no_change.reshape(k, n), mask, self.z,
-                        self.accurate_ratio, self.min_count, comparable=taken >= 2)
+                        self.accurate_ratio, self.min_count, comparable=taken >= 2, recent=recent)
         self.trusted[ids] = verdict.trusted
         self.ratio[ids] = verdict.ratio
         self.progress[ids] = verdict.progress
@@ -305,6 +336,9 @@ class HeldOutReliability:
             "trusted": torch.from_numpy(self.trusted.copy()), "ratio": torch.from_numpy(self.ratio.copy()),
             "progress": torch.from_numpy(self.progress.copy()),
             "standard_error": torch.from_numpy(self.standard_error.copy()),
+            "recent_error": torch.from_numpy(self.recent_error.copy()),
+            "recent_no_change": torch.from_numpy(self.recent_no_change.copy()),
+            "recent_count": torch.from_numpy(self.recent_count.copy()),
         }
 
     def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
@@ -313,5 +347,5 @@ class HeldOutReliability:
         for name in ("latent", "action", "reward", "next_latent", "snapshots"):
             setattr(self, name, state[name].clone())
         for name in ("written", "seen", "updates", "taken", "trusted", "ratio", "progress",
-                     "standard_error"):
+                     "standard_error", "recent_error", "recent_no_change", "recent_count"):
             setattr(self, name, state[name].numpy().copy())

@@ -19,7 +19,11 @@ Options (docs/dual-system.md, "Mechanisms"; each off in the ``paper`` profile):
   few transitions forgets the rest of its region and is judged better on anything recent); the LP error is
   always the new transition's alone.
 - ``region_space = normalised``: the map lives in φ / s, s the latent's running RMS spread
-  (`core.dual.itm_resolution.LatentScale`), so e_max is in units of s; ``region_prune_after = N`` removes
+  (`core.dual.itm_resolution.LatentScale`), so e_max is in units of s: when the encoder's latents grow 100×
+  over training, the regions do not move.
+- ``model_space = normalised``: the local models read (φ − μ) / s and predict changes in units of s (μ the
+  running mean; ``ModelBank.latent_scale``): their initial outputs and Adam's step size are relative to the
+  latent's spread, not to its units. ``region_prune_after = N`` removes
   nodes that have not won for N states.
 - ``reliability = heldout``: every ``heldout_every``-th transition of a node is held out (not trained on) and
   the node's reliability is judged on it (`core.dual.reliability`); arbitration and Alg. 1's depth use it.
@@ -113,7 +117,7 @@ class LocalWorldModels:
             HeldOutReliability(self.bank, size=dual.heldout_size, every=dual.heldout_every,
                                lag=dual.reliability_lag, z=dual.reliability_z,
                                accurate_ratio=dual.accurate_ratio,
-                               initial_capacity=capacity)
+                               initial_capacity=capacity, window=dual.lp_sigma)
             if needs_heldout(dual) else None
         )
         if self.heldout is not None:
@@ -142,6 +146,7 @@ class LocalWorldModels:
         grow = True
         if self.scale is not None:
             self.scale.observe(phi)
+            self._sync_model_space()
             grow = self.scale.warm
         events = self.itm.update(self.region_coordinates(phi), grow=grow)
         self._follow(events)
@@ -151,6 +156,12 @@ class LocalWorldModels:
             if pruned:
                 self._reset(list(pruned))
         return events.winner
+
+    def _sync_model_space(self) -> None:
+        """``model_space = normalised``: the models' μ and s follow the latent's running mean and spread."""
+        if self.config.model_space == "normalised":
+            self.bank.latent_scale = self.unit.scale
+            self.bank.latent_offset = torch.from_numpy(self.unit.mean).to(torch.float32)
 
     def _follow(self, events: ItmEvents) -> None:
         if events.removed:
@@ -234,8 +245,12 @@ class LocalWorldModels:
             if self._memory is not None:
                 self._memory.add(node, phi[0], action[0], float(reward_ext), next_phi[0], float(terminated))
         self.lp.record([node], [error])
+        if self.heldout is not None:
+            no_change = float(self.bank.errors(phi, torch.zeros(1), next_phi, reward)[0])
+            self.heldout.record(node, error, no_change)
         if self.unit is not self.scale:
             self.unit.observe(phi[0])
+            self._sync_model_space()
         if self.heldout is not None and (old is not None or not held_out):
             self.heldout.after_update([node])
         return TransitionFeedback(error=error, intrinsic_reward=self.intrinsic_reward(node, next_phi))
@@ -272,6 +287,9 @@ class LocalWorldModels:
         self, phi: torch.Tensor, action: torch.Tensor, reward_ext: torch.Tensor, next_phi: torch.Tensor
     ) -> torch.Tensor:
         """One Eq. 5 step of the global model (node 0) on a minibatch; returns the pre-update errors (MVE)."""
+        for row in phi:
+            self.unit.observe(row)
+        self._sync_model_space()
         nodes = torch.zeros(phi.shape[0], dtype=torch.int64)
         errors = self.bank.update(nodes, phi, action, next_phi, reward_ext)
         return errors
@@ -358,11 +376,12 @@ class LocalWorldModels:
             self._set_resolution(self.resolution.current)
         if self.scale is not None:
             self.scale.load_state_dict(state["scale"])
+        if self.unit is not self.scale and "unit" in state:
+            self.unit.load_state_dict(state["unit"])
+        self._sync_model_space()
         if self.heldout is not None:
             self.heldout.load_state_dict(state["heldout"])
         self.bank.generator.set_state(state["generator"]["state"])
-        if self.unit is not self.scale and "unit" in state:
-            self.unit.load_state_dict(state["unit"])
 
 
 class _NodeMemory:

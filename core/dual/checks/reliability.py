@@ -109,8 +109,16 @@ def trusted_share(dual: DualConfig, stream: Stream, length: int, seed: int) -> f
     now = _errors(stream, now_ages, first, length, rng, difficulty)
     befores = [_errors(stream, ages_back, first, length, rng, difficulty) for ages_back in (recent, oldest)]
     no_change = np.abs(1.0 + DIFFICULTY_NOISE * rng.normal(size=(now_ages.size, n)))
+    window = dual.lp_sigma  # the newest transitions, each scored by the model of its time
+    window_ages = np.maximum(now_ages[:, None] - np.arange(window)[None, :], 0)
+    window_difficulty = np.abs(1.0 + DIFFICULTY_NOISE * rng.normal(size=window_ages.shape))
+    level = stream.level((window_ages - first) / length)
+    jitter = rng.normal(size=window_ages.shape) * stream.sample_jitter
+    recent = (level * window_difficulty * np.abs(1.0 + jitter),
+              np.abs(1.0 + DIFFICULTY_NOISE * rng.normal(size=window_ages.shape)),
+              np.ones(window_ages.shape, dtype=bool))
     verdict = judge(now, befores, no_change, np.ones_like(now, dtype=bool), dual.reliability_z,
-                    dual.accurate_ratio, max(2, n // 2))
+                    dual.accurate_ratio, max(2, n // 2), recent=recent)
     return float(verdict.trusted.mean())
 
 

@@ -171,7 +171,7 @@ class DualConfig:
     region_space: Literal["latent", "normalised"] = "normalised"
     """Where the ITM lives: the raw latent (paper) or the latent divided by its running RMS spread."""
     model_space: Literal["latent", "normalised"] = "normalised"
-    """What the local models read and predict: the raw latent (paper) or (φ − mean) / RMS spread s, in s."""
+    """What the local models read and predict: the raw latent (paper) or φ / its RMS spread s, in s units."""
     region_prune_after: int = 3000
     """Remove an ITM node that has not been the best match for this many states (0: never, paper)."""
     e_max_relative: float | None = None

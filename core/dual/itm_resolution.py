@@ -92,11 +92,11 @@ class LatentScale:
     scaling is how our encoder's latent drifts most (distances grow about 100× over training,
     docs/results.md); nodes left behind by any other drift stop winning and are pruned
     (``dual.region_prune_after``). ``warm`` says whether ``warmup`` states have been seen: before that the
-    spread of the first few, strongly correlated latents is no scale, and the map does not grow.
+    spread of the first few, strongly correlated latents is no scale, and the map is not placed yet.
     """
 
     def __init__(
-        self, dim: int, horizon: int = 1000, warmup: int = 100, shrink_horizon: int = 20_000
+        self, dim: int, horizon: int = 200, warmup: int = 100, shrink_horizon: int = 20_000
     ) -> None:
         self.rate = 1.0 / float(horizon)
         self.shrink = 1.0 - 1.0 / float(shrink_horizon)

@@ -21,9 +21,9 @@ Options (docs/dual-system.md, "Mechanisms"; each off in the ``paper`` profile):
 - ``region_space = normalised``: the map lives in φ / s, s the latent's running RMS spread
   (`core.dual.itm_resolution.LatentScale`), so e_max is in units of s: when the encoder's latents grow 100×
   over training, the regions do not move.
-- ``model_space = normalised``: the local models read (φ − μ) / s and predict changes in units of s (μ the
-  running mean; ``ModelBank.latent_scale``): their initial outputs and Adam's step size are relative to the
-  latent's spread, not to its units. ``region_prune_after = N`` removes
+- ``model_space = normalised``: the local models read φ / s and predict changes in units of s
+  (``ModelBank.latent_scale``; s over a longer horizon than the map's): their initial outputs and Adam's step
+  size are relative to the latent's spread, not to its units. ``region_prune_after = N`` removes
   nodes that have not won for N states.
 - ``reliability = heldout``: every ``heldout_every``-th transition of a node is held out (not trained on) and
   the node's reliability is judged on it (`core.dual.reliability`); arbitration and Alg. 1's depth use it.
@@ -45,6 +45,14 @@ from core.dual.itm_resolution import LatentScale, RelativeResolution
 from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
 from core.dual.reliability import HeldOutReliability
+
+REGION_SCALE_HORIZON = 200
+"""States over which the map's scale averages: short, to follow an encoder whose latents grow 100× in ~2000
+steps (it shrinks only over 20 000, `LatentScale`)."""
+
+MODEL_SCALE_HORIZON = 1000
+"""States over which the models' units (and r_int's) average: long, since what a model has learnt moves with
+them."""
 
 PRUNE_EVERY = 64
 """States between two sweeps of `InstantaneousTopologicalMap.prune_idle` (``dual.region_prune_after``)."""
@@ -91,7 +99,8 @@ class LocalWorldModels:
             if regions and dual.e_max_relative is not None
             else None
         )
-        self.scale = LatentScale(latent_dim) if regions and dual.region_space == "normalised" else None
+        self.scale = (LatentScale(latent_dim, horizon=REGION_SCALE_HORIZON)
+                      if regions and dual.region_space == "normalised" else None)
         self.bank = ModelBank(
             latent_dim=latent_dim,
             action_dim=action_dim,
@@ -122,8 +131,9 @@ class LocalWorldModels:
         )
         if self.heldout is not None:
             self.heldout.reset_nodes(np.arange(capacity))
-        self.unit = self.scale if self.scale is not None else LatentScale(latent_dim)
-        """The latent's running RMS spread s (`LatentScale`, slow to shrink): the repaired r_int's unit."""
+        self.unit = LatentScale(latent_dim, horizon=MODEL_SCALE_HORIZON)
+        """The latent's running mean and RMS spread over a longer horizon (`LatentScale`): the local models'
+        units (``model_space``) and the repaired r_int's unit."""
         self.sample_size = max(0, dual.model_batch - 1)
         """Older transitions of the node in each Eq. 5 step, beside the new one."""
         self.memory_size = max(self.sample_size, dual.model_memory) if self.sample_size else 0
@@ -143,12 +153,11 @@ class LocalWorldModels:
             return 0
         if self.resolution is not None:
             self._set_resolution(self.resolution.observe(phi))
-        grow = True
         if self.scale is not None:
             self.scale.observe(phi)
-            self._sync_model_space()
-            grow = self.scale.warm
-        events = self.itm.update(self.region_coordinates(phi), grow=grow)
+            if not self.scale.warm:  # no unit yet to place nodes in: one region until the scale is known
+                return 0
+        events = self.itm.update(self.region_coordinates(phi))
         self._follow(events)
         prune = self.config.region_prune_after
         if prune and self.itm.updates % PRUNE_EVERY == 0:
@@ -158,10 +167,11 @@ class LocalWorldModels:
         return events.winner
 
     def _sync_model_space(self) -> None:
-        """``model_space = normalised``: the models' μ and s follow the latent's running mean and spread."""
+        """``model_space = normalised``: the models' unit s follows the latent's running RMS spread. They are
+        not centred: a running mean moves with where the agent is, and would move what they have learnt
+        (the intrinsic check's learnable regions lost their progress that way)."""
         if self.config.model_space == "normalised":
             self.bank.latent_scale = self.unit.scale
-            self.bank.latent_offset = torch.from_numpy(self.unit.mean).to(torch.float32)
 
     def _follow(self, events: ItmEvents) -> None:
         if events.removed:
@@ -188,13 +198,13 @@ class LocalWorldModels:
 
     def nearest(self, phi: torch.Tensor) -> int:
         """Best-matching node of a (predicted) latent without adapting the map (Alg. 1 line 5)."""
-        if self.itm is None:
+        if self.itm is None or not self.itm.initialised:
             return 0
         return int(self.itm.nearest(self.region_coordinates(phi))[0])
 
     def nearest_many(self, phi: torch.Tensor) -> np.ndarray:
         """Best-matching node of each row of ``phi [B, latent]`` (one batched distance computation)."""
-        if self.itm is None:
+        if self.itm is None or not self.itm.initialised:
             return np.zeros(phi.shape[0], dtype=np.int64)
         return self.itm.nearest(self.region_coordinates(phi))
 
@@ -248,9 +258,8 @@ class LocalWorldModels:
         if self.heldout is not None:
             no_change = float(self.bank.errors(phi, torch.zeros(1), next_phi, reward)[0])
             self.heldout.record(node, error, no_change)
-        if self.unit is not self.scale:
-            self.unit.observe(phi[0])
-            self._sync_model_space()
+        self.unit.observe(phi[0])
+        self._sync_model_space()
         if self.heldout is not None and (old is not None or not held_out):
             self.heldout.after_update([node])
         return TransitionFeedback(error=error, intrinsic_reward=self.intrinsic_reward(node, next_phi))
@@ -360,8 +369,7 @@ class LocalWorldModels:
         if self.heldout is not None:
             state["heldout"] = self.heldout.state_dict()
         state["generator"] = {"state": self.bank.generator.get_state()}
-        if self.unit is not self.scale:
-            state["unit"] = self.unit.state_dict()
+        state["unit"] = self.unit.state_dict()
         return state
 
     def load_state_dict(self, state: dict[str, dict[str, torch.Tensor]]) -> None:
@@ -376,8 +384,7 @@ class LocalWorldModels:
             self._set_resolution(self.resolution.current)
         if self.scale is not None:
             self.scale.load_state_dict(state["scale"])
-        if self.unit is not self.scale and "unit" in state:
-            self.unit.load_state_dict(state["unit"])
+        self.unit.load_state_dict(state["unit"])
         self._sync_model_space()
         if self.heldout is not None:
             self.heldout.load_state_dict(state["heldout"])

@@ -109,7 +109,7 @@ def region_shares(dual: DualConfig, steps: int, seed: int, intrinsic: bool = Tru
     return np.array([np.mean(second_half == k) for k in range(len(REGIONS))])
 
 
-def intrinsic_check(dual: DualConfig, steps: int = 6000, seeds: int = 3) -> dict[str, float]:
+def intrinsic_check(dual: DualConfig, steps: int = 6000, seeds: int = 5) -> dict[str, float]:
     """The JSON figures: shares of the learnable, learned (trivial) and noise regions, and the learnable share
     of the same learner without r_int (means over seeds)."""
     with_rint = np.mean([region_shares(dual, steps, seed) for seed in range(seeds)], axis=0)

@@ -42,9 +42,9 @@ def run_mechanism_checks(profile: str = "default", quick: bool = False) -> dict[
     try:
         return {
             "profile": profile,
-            "world_model": world_model_check(dual, steps=1500 if quick else 3000, seeds=1 if quick else 2),
+            "world_model": world_model_check(dual, steps=2500 if quick else 3000, seeds=1 if quick else 2),
             "reliability": reliability_check(dual, seeds=2 if quick else 3),
-            "intrinsic": intrinsic_check(dual, steps=4000 if quick else 6000, seeds=1 if quick else 3),
+            "intrinsic": intrinsic_check(dual, steps=4000 if quick else 6000, seeds=1 if quick else 5),
             "planner": planner_check(config, starts=60 if quick else 200,
                                      transitions=1500 if quick else 3000),
             "regions": regions_check(dual, states=2000 if quick else 4000),

@@ -363,3 +363,62 @@ def test_no_change_error_is_eq8_of_predicting_phi_t_and_zero_reward() -> None:
     expected = float((next_phi - phi).norm() + 0.5)
     assert agent.counters.naive_errors == [pytest.approx(expected, rel=1e-5)]
     assert agent.episode_diagnostics()["dual/no_change_error"] == pytest.approx(expected, rel=1e-5)
+
+
+class _CountingModel:
+    """An ImaginationModel on a 1-D line: φ′ = φ + 1, reward = φ, terminal once φ′ ≥ 3, a fixed share."""
+
+    def __init__(self, share: float) -> None:
+        self._share = share
+
+    def locate(self, phi):
+        return np.zeros(phi.shape[0], dtype=np.int64)
+
+    def proceed(self, regions):
+        return np.ones(regions.shape[0], dtype=bool)
+
+    def predict(self, regions, phi, action):
+        from core.dual.model_bank import ModelPrediction
+
+        nxt = phi + 1.0
+        return ModelPrediction(next_latent=nxt, reward=phi[:, 0], done=(nxt[:, 0] >= 3.0).float())
+
+    def share(self, regions):
+        return np.full(regions.shape[0], self._share)
+
+
+def test_learn_time_imagination_follows_the_model_stops_at_termination_and_is_gated() -> None:
+    from core.dual.imagination import imagine
+
+    starts = torch.tensor([[0.0], [1.0], [2.5]])
+    batch = imagine(starts, _CountingModel(1.0), lambda phi: torch.zeros(phi.shape[0], 1), 5,
+                    np.random.default_rng(0), limit=100)
+    # 0 → 1 → 2 → 3 (done), 1 → 2 → 3 (done), 2.5 → 3.5 (done): six transitions, three terminal.
+    assert batch.latent.shape[0] == 6 and float(batch.done.sum()) == 3.0
+    torch.testing.assert_close(batch.next_latent, batch.latent + 1.0)
+    assert set(batch.latent[:, 0].tolist()) == {0.0, 1.0, 2.0, 2.5}
+    assert imagine(starts, _CountingModel(0.0), lambda phi: torch.zeros(phi.shape[0], 1), 5,
+                   np.random.default_rng(0), limit=100) is None
+    limited = imagine(starts, _CountingModel(1.0), lambda phi: torch.zeros(phi.shape[0], 1), 5,
+                      np.random.default_rng(0), limit=4)
+    assert limited.latent.shape[0] == 4
+
+
+def test_i2a_imagines_at_learn_time_from_the_current_encoder_and_stores_nothing() -> None:
+    agent = _agent("i2a", "agent.learning_starts=4")
+    obs = _obs(5)
+    agent.begin_episode(obs)
+    for step in range(30):
+        _step(agent, _obs(step % 3))
+        agent.update_after_step()
+    assert len(agent.latent_replay) == 0  # B_latent of Alg. 3 line 17 is not used
+    agent.world.heldout.trusted[:] = True  # every region trusted: the rollouts run up to D_max steps
+    agent.world.heldout.ratio[:] = 0.0  # and every transition passes the gate
+    frames = torch.from_numpy(np.stack([_obs(0), _obs(1)]))
+    batch = agent._imagine_from(frames)
+    with torch.no_grad():
+        current = agent.learner.encode(frames)
+    assert batch is not None and batch.latent.shape[0] <= agent.config.dual.latent_batch_size
+    first_steps = [row for row in batch.latent if any(torch.allclose(row, c, atol=1e-6) for c in current)]
+    assert first_steps  # rollouts start at the minibatch's latents under the encoder as it is now
+    assert agent.counters.imagined >= batch.latent.shape[0]

@@ -602,6 +602,9 @@ def check_config(config: Config) -> None:
     for key in ("agent.critic_lr", "agent.actor_lr", "dual.model_lr", "dual.e_max", "dual.plan_lr"):
         if value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
+    if config.dual.e_max_relative is not None and config.dual.region_space == "normalised":
+        raise ConfigError("bad value for dual.e_max_relative: it sets e_max in raw latent units; use it with "
+                          "dual.region_space=latent (the normalised map's e_max is already relative)")
     if config.dual.model_space == "normalised" and config.dual.model_output == "released":
         raise ConfigError("bad value for dual.model_space: normalised needs dual.model_output=linear "
                           "(a sigmoid output is in the raw latent's units)")

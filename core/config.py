@@ -196,10 +196,19 @@ class DualConfig:
     """Dual-system section (ITM, learning progress, world-model bank, meta-controller, imagination).
 
     Used by the dual-system methods (im2c, i2a, mve, cmc, la-imagination); plain ddpg/cacla ignore it.
+    The defaults are the ``default`` profile: the repairs of docs/dual-system.md ("Mechanisms") are on. The
+    ``paper`` profile sets the literal reading of the paper and the released code (``_paper_dual``).
     """
 
-    e_max: float = 6.0
-    """ITM mapping resolution e_max (Section 4.1.1)."""
+    e_max: float = 1.0
+    """ITM mapping resolution e_max (Section 4.1.1: 6 in latent units); in units of the latent's RMS spread
+    when ``region_space`` is normalised (default 1)."""
+    region_space: Literal["latent", "normalised"] = "normalised"
+    """Where the ITM lives: the raw latent (paper) or the latent divided by its running RMS spread."""
+    model_space: Literal["latent", "normalised"] = "normalised"
+    """What the local models read and predict: the raw latent (paper) or φ / its RMS spread s, in s units."""
+    region_prune_after: int = 3000
+    """Remove an ITM node that has not been the best match for this many states (0: never, paper)."""
     e_max_relative: float | None = None
     """Scale-free e_max (dual/itm_resolution.py): when set to ρ, e_max = ρ · the median pairwise L2 distance
     among 256 of the last 2048 latents, refreshed every 256 states; None: absolute e_max (paper, released)."""
@@ -216,45 +225,74 @@ class DualConfig:
     (released code), or the node is unreliable with r_int = 0 (paper reading of Eq. 9)."""
     error_norm: Literal["l2", "squared"] = "l2"
     """Prediction error as norms (released code) or squared norms (paper Eq. 8)."""
+    reliability: Literal["lp", "heldout"] = "heldout"
+    """Arbitration's reliability: LP ≥ 0 of the error stream (Eq. 9, paper) or held-out error and progress."""
+    heldout_size: int = 48
+    """Held-out transitions kept per node for ``reliability = heldout`` (its newest ones, a ring)."""
+    heldout_every: int = 4
+    """Every k-th real transition of a node goes to its held-out set instead of its training data."""
+    reliability_lag: int = 100
+    """Model updates between parameter snapshots; held-out progress compares with one L..2L updates old."""
+    reliability_z: float = 3.0
+    """Margin, in standard errors of the paired held-out difference, for "improving" and "worsening"."""
+    accurate_ratio: float = 0.5
+    """A model is accurate when its held-out error is at most this share of the no-change predictor's."""
+    intrinsic_signal: Literal["neg_lp", "progress"] = "progress"
+    """r_int: −c·LP of the error stream (Alg. 2 line 22, paper) or +c·held-out progress / no-change error."""
+    intrinsic_region: Literal["source", "destination"] = "destination"
+    """Region whose LP rewards a transition: the one it started in (paper) or the one the action led into."""
     intrinsic_scale: float = 0.1
-    """Scale c of r_int = −c·LP added to the extrinsic reward (paper: 1, the ``paper`` profile). Default 0.1:
-    with the released normalisation |LP| ≤ 1 per step, so at 1 the summed r_int of an episode outweighs the
-    ±1 terminal reward and the agent learns to linger (docs/dual-system.md)."""
+    """Scale c of r_int (paper: 1, the ``paper`` profile). Default 0.1: at 1 with the paper's signal the
+    summed r_int of an episode outweighs the ±1 terminal reward and the agent lingers (docs/dual-system)."""
     model_hidden: int = 20
     """Hidden tanh units of each local world model M_n, R_n."""
     model_lr: float = 1e-3
     """Adam learning rate of the local models."""
     model_output: Literal["linear", "released"] = "linear"
     """Local-model output units: linear (Section 4.1.1) or sigmoid latent / tanh reward (released code)."""
-    model_batch: int = 1
-    """Samples per local-model update (released code: the one real transition)."""
-    new_node_model: Literal["fresh", "parent"] = "fresh"
+    model_target: Literal["absolute", "delta"] = "delta"
+    """What M_n outputs: φ̂′ itself (Eq. 5, paper) or the change, φ̂′ = φ + M_n(φ, a)."""
+    model_termination: bool = True
+    """A termination head on each local model (BCE on the real ``terminated``) for imagined ``done`` flags."""
+    model_batch: int = 16
+    """Samples per local-model update: the new transition and the node's recent ones (paper, released: 1)."""
+    model_memory: int = 256
+    """Real transitions kept per node; each update samples ``model_batch − 1`` of them (0: the newest)."""
+    new_node_model: Literal["fresh", "parent"] = "parent"
     """A new ITM node's model: freshly initialised (released code) or copied from its parent node."""
-    refit_every: int = 0
+    refit_every: int = 25
     """Refit the local models every N real steps on ``refit_batch`` replayed transitions re-encoded by the
-    current encoder, each sample to its nearest node (core/dual/world_models.py ``refit``): a remedy for the
-    latent drift of a jointly trained encoder, not in the paper. 0: never (paper, released code)."""
+    current encoder, each to its nearest node (core/dual/world_models.py ``refit``). 0: never (paper)."""
     refit_batch: int = 256
     """Transitions per refit step (one Eq. 5 Adam step of each node the batch touches)."""
     arbitration: Literal["lp", "model_free"] = "lp"
-    """Meta-controller: LP-based arbitration (Alg. 2 lines 12-19), or ``model_free`` — an ablation that always
-    acts with μ(φ) (no MPC, so no I2A imagination), keeping regions, local models and r_int."""
+    """Meta-controller: reliability-based arbitration (Alg. 2 lines 12-19), or ``model_free`` — an ablation
+    that always acts with μ(φ) (no MPC, no I2A imagination), keeping regions, local models and r_int."""
     d_max: int = 6
     """Maximum planning depth D_max (Algorithm 1)."""
     plan_steps: int = 10
     """K gradient steps of plan optimisation (Eq. 7)."""
-    plan_lr: float = 1e-3
-    """α_plan of Eq. 7."""
+    plan_lr: float = 0.1
+    """α_plan of Eq. 7 (paper: 1e-3); adam, normalised: a step length in action units."""
+    plan_optimiser: Literal["sgd", "normalised", "adam"] = "normalised"
+    """Eq. 7's step: plain gradient (paper), the gradient scaled to length α, or Adam on the plan."""
+    plan_clip: Literal["executed", "every_step"] = "every_step"
+    """Clip only the executed action to [−1, 1] (paper) or every plan action after every step (projection)."""
     plan_objective: Literal["sum", "per_step"] = "sum"
     """sum: (R* − Σ r̂)² (paper Eq. 6); per_step: ½ Σ (1 − r̂)² (released code)."""
     r_star: float = 1.0
     """Desired return R* of Eq. 6."""
+    imagination_source: Literal["act_time", "learn_time"] = "learn_time"
+    """Imagined transitions: the act-time rollout stored in B_latent (Alg. 3 line 17, paper) or rollouts from
+    the pixel minibatch's states, encoded by the current encoder, made at each update and never stored."""
+    imagination_gate: Literal["none", "no_change_ratio"] = "no_change_ratio"
+    """Keep an imagined transition with probability 1 − (node's held-out error / no-change error), or all."""
     pixel_buffer_size: int = 60_000
     """I2A pixel replay capacity B_pixel."""
     latent_buffer_size: int = 200_000
     """I2A latent replay capacity B_latent."""
     latent_batch_size: int = 64
-    """Minibatch size sampled from B_latent."""
+    """Minibatch size sampled from B_latent (learn-time imagination: the most imagined rows per update)."""
     fixed_horizon: int = 2
     """MVE-DDPG's fixed value-expansion horizon H (Section 4.1.2: 2)."""
     cmc_horizon: int = 3
@@ -331,9 +369,43 @@ def _paper_profile() -> Config:
             noise_final_std=1.0,
             noise_anneal_steps=1,
         ),
-        dual=DualConfig(intrinsic_scale=1.0),
+        dual=_paper_dual(),
     )
 
+
+def _paper_dual() -> DualConfig:
+    """The dual section read literally: the paper's text, the released code where the text is silent, every
+    repair of docs/dual-system.md ("Mechanisms") off."""
+    return DualConfig(
+        e_max=6.0,
+        region_space="latent",
+        model_space="latent",
+        region_prune_after=0,
+        reliability="lp",
+        intrinsic_signal="neg_lp",
+        intrinsic_region="source",
+        intrinsic_scale=1.0,
+        model_target="absolute",
+        model_termination=False,
+        model_batch=1,
+        model_memory=0,
+        new_node_model="fresh",
+        refit_every=0,
+        plan_lr=1e-3,
+        plan_optimiser="sgd",
+        plan_clip="executed",
+        imagination_source="act_time",
+        imagination_gate="none",
+    )
+
+
+PAPER_DUAL_OVERRIDES: tuple[str, ...] = tuple(
+    f"dual.{f.name}={getattr(_paper_dual(), f.name)}"
+    for f in dataclasses.fields(DualConfig)
+    if getattr(_paper_dual(), f.name) != getattr(DualConfig(), f.name)
+)
+"""``dual.<field>=<value>`` for every field where the paper's dual section differs from the default's: a
+default-profile run with these overrides has the literal dual reading and the default's everything else."""
 
 PROFILES: dict[str, typing.Callable[[], Config]] = {
     "default": Config,
@@ -517,6 +589,9 @@ _POSITIVE_INTS = (
     "dual.latent_buffer_size",
     "dual.latent_batch_size",
     "dual.refit_batch",
+    "dual.heldout_size",
+    "dual.heldout_every",
+    "dual.reliability_lag",
 )
 _NON_NEGATIVE = (
     "run.seed",
@@ -532,6 +607,10 @@ _NON_NEGATIVE = (
     "dual.fixed_horizon",
     "dual.cmc_horizon",
     "dual.refit_every",
+    "dual.region_prune_after",
+    "dual.model_memory",
+    "dual.reliability_z",
+    "dual.accurate_ratio",
 )
 
 
@@ -562,9 +641,20 @@ def check_config(config: Config) -> None:
         raise ConfigError(f"bad value for agent.gamma: {config.agent.gamma!r} (must be in [0, 1])")
     if not 0.0 <= config.agent.tau <= 1.0:
         raise ConfigError(f"bad value for agent.tau: {config.agent.tau!r} (must be in [0, 1])")
-    for key in ("agent.critic_lr", "agent.actor_lr", "agent.rnd_lr", "dual.model_lr", "dual.e_max"):
+    positive = ("agent.critic_lr", "agent.actor_lr", "agent.rnd_lr", "dual.model_lr", "dual.e_max",
+                "dual.plan_lr")
+    for key in positive:
         if value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
+    if config.dual.e_max_relative is not None and config.dual.region_space == "normalised":
+        raise ConfigError("bad value for dual.e_max_relative: it sets e_max in raw latent units; use it with "
+                          "dual.region_space=latent (the normalised map's e_max is already relative)")
+    if config.dual.model_space == "normalised" and config.dual.model_output == "released":
+        raise ConfigError("bad value for dual.model_space: normalised needs dual.model_output=linear "
+                          "(a sigmoid output is in the raw latent's units)")
+    if config.dual.model_target == "delta" and config.dual.model_output == "released":
+        raise ConfigError("bad value for dual.model_target: delta needs dual.model_output=linear "
+                          "(a sigmoid output cannot be a change)")
     if not config.net.conv_channels or min(config.net.conv_channels) < 1:
         raise ConfigError("bad value for net.conv_channels: needs at least one positive channel count")
     if not config.net.mlp_hidden or min(config.net.mlp_hidden) < 1:

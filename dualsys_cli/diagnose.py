@@ -1,4 +1,5 @@
-"""`dualsys diagnose ...`: look inside a trained run (what the dual-system parts see)."""
+"""`dualsys diagnose ...`: look inside a trained run (what the dual-system parts see), and check that each
+dual-system mechanism does its job on a controlled problem."""
 
 from __future__ import annotations
 
@@ -9,7 +10,32 @@ import typer
 
 from dualsys_cli.errors import user_errors
 
-app = typer.Typer(help="Diagnostics of a trained run's dual-system parts.", no_args_is_help=True)
+app = typer.Typer(help="Diagnostics of the dual-system parts.", no_args_is_help=True)
+
+
+@app.command("mechanisms")
+def mechanisms(
+    profile: str = typer.Option("default", help="Profile whose dual section is checked: default or paper."),
+    quick: bool = typer.Option(False, "--quick", help="Smaller sizes of the same checks (the tests' sizes)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object."),
+) -> None:
+    """The six mechanism checks (docs/dual-system.md, "Mechanisms"): world models, reliability, intrinsic
+    reward, planner, regions, imagination."""
+    with user_errors():
+        from core.config import PROFILES
+
+        if profile not in PROFILES:
+            raise ValueError(f"unknown profile {profile!r} (choose from {', '.join(sorted(PROFILES))})")
+        from core.dual.checks.runner import GOALS, run_mechanism_checks
+
+        result = run_mechanism_checks(profile, quick=quick)
+    if as_json:
+        typer.echo(json.dumps(result))
+        return
+    typer.echo(f"profile {result['profile']}")
+    for check, goal in GOALS.items():
+        typer.echo(f"  {check:<12} {json.dumps(result[check])}")
+        typer.echo(f"  {'':<12} goal: {goal}")
 
 
 @app.command("regions")

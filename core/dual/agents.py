@@ -42,14 +42,14 @@ import numpy as np
 import torch
 
 from core.config import Config
-from core.dual.imagination import imagination_update, la_imagination_rollout
+from core.dual.imagination import RegionModels, imagination_update, imagine, la_imagination_rollout
 from core.dual.meta_controller import MetaController
 from core.dual.planning import PlanResult, Rollout
 from core.dual.value_expansion import ValueExpansionActorCritic
 from core.dual.world_models import LocalWorldModels
 from core.envs.spec import EnvSpec
 from core.modelfree.agent import ModelFreeAgent, Transition
-from core.modelfree.replay import LatentReplay, PixelReplay
+from core.modelfree.replay import LatentBatch, LatentReplay, PixelReplay
 
 Imagination = Literal["none", "adaptive", "la"]
 
@@ -132,7 +132,7 @@ class DualSystemAgent(ModelFreeAgent):
             action = decision.action.numpy()
             if decision.model_based and decision.rollout is not None:
                 self._count_model_based(decision.rollout, decision.plan)
-                if self.imagination == "adaptive":
+                if self.imagination == "adaptive" and self._act_time_imagination:
                     self._store_imagined(decision.rollout)  # Alg. 3 line 17
             else:
                 self.counters.mf_decisions += 1
@@ -141,13 +141,18 @@ class DualSystemAgent(ModelFreeAgent):
             action = self._actor(phi)[0].numpy()
             self.counters.mf_decisions += 1
             self.total_mf_decisions += 1
-        if self.imagination == "la":
+        if self.imagination == "la" and self._act_time_imagination:
             dual = self.config.dual
             rollout = la_imagination_rollout(phi, node, self.world, self._actor, dual.d_max,
                                              dual.imagination_prob_scale, self.rng)
             self._store_imagined(rollout)
         noisy = self.noise.perturb(action, self.steps, self.rng)  # line 20
         return noisy.astype(np.float32), {}
+
+    @property
+    def _act_time_imagination(self) -> bool:
+        """Imagination stored in B_latent at act time (paper) rather than made at learn time (the repair)."""
+        return self.config.dual.imagination_source == "act_time"
 
     def _count_model_based(self, rollout: Rollout, plan: PlanResult | None) -> None:
         self.counters.horizons.append(rollout.depth)
@@ -176,7 +181,7 @@ class DualSystemAgent(ModelFreeAgent):
         next_phi = self._encode(transition.next_obs)
         action = torch.as_tensor(transition.action, dtype=torch.float32)
         feedback = self.world.learn_transition(self._node, self._phi[0], action, transition.reward,
-                                               next_phi[0])  # lines 22 and 25
+                                               next_phi[0], transition.terminated)  # lines 22 and 25
         self._pending_intrinsic = feedback.intrinsic_reward if self.intrinsic else 0.0
         self.counters.errors.append(feedback.error)
         self.counters.naive_errors.append(self._no_change_error(next_phi[0], transition.reward))
@@ -206,7 +211,8 @@ class DualSystemAgent(ModelFreeAgent):
         count = batch.obs.shape[0]
         with torch.no_grad():
             latents = self.learner.encode(torch.cat([batch.obs, batch.next_obs]).to(self.device)).cpu()
-        errors = self.world.refit(latents[:count], batch.action, batch.reward_ext, latents[count:])
+        errors = self.world.refit(latents[:count], batch.action, batch.reward_ext, latents[count:],
+                                  batch.terminated)
         self.counters.refit_errors.append(float(errors.mean()))
 
     # -- learning --------------------------------------------------------------------------------
@@ -215,13 +221,29 @@ class DualSystemAgent(ModelFreeAgent):
             return super().learn_minibatch()
         batch = self.replay.sample(self.config.agent.batch_size, self.rng)
         latent = None
-        if len(self.latent_replay) > 0:
+        if not self._act_time_imagination:
+            latent = self._imagine_from(batch.obs)
+        elif len(self.latent_replay) > 0:
             latent = self.latent_replay.sample(self.config.dual.latent_batch_size, self.rng)
         if self.device.type != "cpu":
             batch = type(batch)(*(t.to(self.device) for t in batch))
             latent = None if latent is None else type(latent)(*(t.to(self.device) for t in latent))
         self.updates += 1
         return imagination_update(self.learner, batch, latent)
+
+    def _imagine_from(self, obs: torch.Tensor) -> LatentBatch | None:
+        """Learn-time imagination (``dual.imagination_source``): rollouts from the minibatch's states, encoded
+        by the current encoder (core/dual/imagination.py ``imagine``)."""
+        dual = self.config.dual
+        with torch.no_grad():
+            phi = self.learner.encode(obs.to(self.device)).cpu()
+        stop = "reliable" if self.imagination == "adaptive" else "la"
+        model = RegionModels(self.world, self.rng, stop=stop, la_scale=dual.imagination_prob_scale)
+        latent = imagine(phi, model, self._actor, dual.d_max, self.rng, dual.latent_batch_size)
+        made = 0 if latent is None else latent.latent.shape[0]
+        self.counters.imagined += made
+        self.total_imagined += made
+        return latent
 
     # -- diagnostics -----------------------------------------------------------------------------
     def episode_diagnostics(self) -> dict[str, float]:

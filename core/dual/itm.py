@@ -28,6 +28,10 @@ Decisions written down here (the paper is silent or differs from the released co
   when one was created at φ (distance 0), else n. Node n itself can never be removed by its own
   update (it stays connected to n′).
 
+- Pruning (``dual.region_prune_after``, not in the paper): `prune_idle` removes the nodes that have not been
+  the winner for a given number of updates, so regions left behind by a drifting latent (or by an early,
+  poorly normalised stretch of it) do not accumulate. At least the two most recent winners always stay.
+
 All work is vectorised over nodes with NumPy (weights ``[capacity, dim]`` float64, adjacency a
 boolean ``[capacity, capacity]`` matrix); capacity grows geometrically.
 """
@@ -87,6 +91,9 @@ class InstantaneousTopologicalMap:
         self._weights = np.zeros((capacity, dim), dtype=np.float64)
         self._alive = np.zeros(capacity, dtype=bool)
         self._adjacency = np.zeros((capacity, capacity), dtype=bool)
+        self._last_win = np.zeros(capacity, dtype=np.int64)
+        self.updates = 0
+        """Stimuli seen (`update` calls); the clock of `prune_idle`."""
         if initial_weights is not None:
             w = np.asarray(initial_weights, dtype=np.float64)
             if w.shape != (2, dim):
@@ -153,12 +160,13 @@ class InstantaneousTopologicalMap:
         return int(ids[order[0]]), int(ids[order[1]])
 
     # ------------------------------------------------------------------ adaptation
-    def update(self, phi: np.ndarray | torch.Tensor) -> ItmEvents:
-        """Adapt the map to one stimulus φ (the three steps of Section 2.3.1)."""
+    def update(self, phi: np.ndarray | torch.Tensor, grow: bool = True) -> ItmEvents:
+        """Adapt the map to one stimulus φ (the three steps of Section 2.3.1); ``grow=False`` skips step 3."""
         x = phi.detach().cpu().numpy() if isinstance(phi, torch.Tensor) else np.asarray(phi)
         x = x.astype(np.float64, copy=False).reshape(-1)
         if x.shape[0] != self.dim:
             raise ValueError(f"ITM stimulus must have {self.dim} components, got {x.shape[0]}")
+        self.updates += 1
         if not self.initialised:
             # Released code: both initial nodes start at the first latent.
             self._place_initial_pair(np.stack([x, x]))
@@ -184,18 +192,43 @@ class InstantaneousTopologicalMap:
         outside_thales = float((w[n] - x) @ (w[n2] - x)) > 0.0
         sq = float(((x - w[n]) ** 2).sum())
         dist = sq if self.distance == "squared" else float(np.sqrt(sq))
-        if outside_thales and dist > self.e_max:
+        if grow and outside_thales and dist > self.e_max:
             v = self._allocate()
             self._weights[v] = x
             self._alive[v] = True
             self._connect(v, n)
+            self._last_win[v] = self.updates
             return ItmEvents(winner=v, matched=n, second=n2, added=(v,), removed=removed, parents=(n,))
+        self._last_win[n] = self.updates
         return ItmEvents(winner=n, matched=n, second=n2, added=(), removed=removed, parents=())
+
+    def prune_idle(self, max_idle: int) -> tuple[int, ...]:
+        """Remove the nodes that have not won for more than ``max_idle`` updates (keeping at least two).
+
+        Returns the removed ids; their edges go with them (a neighbour left without edges stays alive and
+        reconnects when it is next matched). Owners of per-node state reset these slots like
+        ``ItmEvents.removed``.
+        """
+        ids = self.alive_ids()
+        idle = ids[self.updates - self._last_win[ids] > max_idle]
+        if idle.size == 0:
+            return ()
+        keep = max(0, 2 - (ids.size - idle.size))
+        if keep:  # spare the most recent winners among the idle ones
+            order = np.argsort(-self._last_win[idle], kind="stable")
+            idle = np.sort(idle[order[keep:]])
+        if idle.size == 0:
+            return ()
+        self._alive[idle] = False
+        self._adjacency[idle, :] = False
+        self._adjacency[:, idle] = False
+        return tuple(int(m) for m in idle)
 
     # ------------------------------------------------------------------ storage
     def _place_initial_pair(self, w: np.ndarray) -> None:
         self._weights[:2] = w
         self._alive[:2] = True
+        self._last_win[:2] = self.updates
         self._connect(0, 1)
 
     def _connect(self, a: int, b: int) -> None:
@@ -214,6 +247,7 @@ class InstantaneousTopologicalMap:
         new = grown_capacity(old, old + 1)
         self._weights = np.concatenate([self._weights, np.zeros((new - old, self.dim))])
         self._alive = np.concatenate([self._alive, np.zeros(new - old, dtype=bool)])
+        self._last_win = np.concatenate([self._last_win, np.zeros(new - old, dtype=np.int64)])
         adjacency = np.zeros((new, new), dtype=bool)
         adjacency[:old, :old] = self._adjacency
         self._adjacency = adjacency
@@ -227,6 +261,8 @@ class InstantaneousTopologicalMap:
             "alive": torch.from_numpy(self._alive.copy()),
             "adjacency": torch.from_numpy(self._adjacency.copy()),
             "e_max": torch.tensor(self.e_max, dtype=torch.float64),
+            "last_win": torch.from_numpy(self._last_win.copy()),
+            "updates": torch.tensor(self.updates),
         }
 
     def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
@@ -237,3 +273,9 @@ class InstantaneousTopologicalMap:
         self._alive = state["alive"].numpy().astype(bool).copy()
         self._adjacency = state["adjacency"].numpy().astype(bool).copy()
         self.e_max = float(state["e_max"])
+        if "last_win" in state:  # checkpoints written before pruning existed lack the clock
+            self._last_win = state["last_win"].numpy().astype(np.int64).copy()
+            self.updates = int(state["updates"])
+        else:
+            self._last_win = np.zeros(self._alive.shape[0], dtype=np.int64)
+            self.updates = 0

@@ -78,3 +78,83 @@ class RelativeResolution:
         restore_generator(self._rng, state["rng"])
         current = float(state["current"])
         self.current = None if np.isnan(current) else current
+
+
+class LatentScale:
+    """The running RMS spread of the latent, for an ITM in scale-free coordinates (``dual.region_space``).
+
+    The spread sqrt(EMA of ‖φ − μ‖²) around the running mean μ (an EMA too), both with the bias correction of
+    Adam's moments and a time constant of ``horizon`` states; s follows the spread up at once and down only
+    with the time constant ``shrink_horizon``: an agent that dwells in one corner of its latent space makes
+    the recent spread small, and a scale that followed it would cut that corner into ever more regions (each
+    with a new model whose learning looks like progress). The map sees φ / s: multiplying every latent by
+    k multiplies s by k, so the normalised stream, the nodes and e_max (in units of s) do not change. Pure
+    scaling is how our encoder's latent drifts most (distances grow about 100× over training,
+    docs/results.md); nodes left behind by any other drift stop winning and are pruned
+    (``dual.region_prune_after``). ``warm`` says whether ``warmup`` states have been seen: before that the
+    spread of the first few, strongly correlated latents is no scale, and the map is not placed yet.
+    """
+
+    def __init__(
+        self, dim: int, horizon: int = 200, warmup: int = 100, shrink_horizon: int = 20_000
+    ) -> None:
+        self.rate = 1.0 / float(horizon)
+        self.shrink = 1.0 - 1.0 / float(shrink_horizon)
+        self.warmup = int(warmup)
+        self._mean = np.zeros(dim, dtype=np.float64)
+        self._square = 0.0
+        self._weight = 0.0
+        self._scale = 0.0
+        self.seen = 0
+
+    @property
+    def scale(self) -> float:
+        """s (1 before two latents have been seen)."""
+        return self._scale if self.seen >= 2 and self._scale > 0.0 else 1.0
+
+    def _spread(self) -> float:
+        if self._weight <= 0.0 or self._square <= 0.0:
+            return 0.0
+        return float(np.sqrt(self._square / self._weight))
+
+    @property
+    def mean(self) -> np.ndarray:
+        """μ, the running mean (zeros before any latent)."""
+        return self._mean / self._weight if self._weight > 0.0 else np.zeros_like(self._mean)
+
+    @property
+    def warm(self) -> bool:
+        return self.seen >= self.warmup
+
+    def observe(self, phi: np.ndarray | torch.Tensor) -> None:
+        x = phi.detach().cpu().numpy() if isinstance(phi, torch.Tensor) else np.asarray(phi)
+        x = x.astype(np.float64).reshape(-1)
+        keep = 1.0 - self.rate
+        self._weight = keep * self._weight + self.rate
+        self._mean = keep * self._mean + self.rate * x
+        deviation = x - self._mean / self._weight
+        self._square = keep * self._square + self.rate * float(deviation @ deviation)
+        self.seen += 1
+        spread = self._spread()
+        self._scale = spread if not self.warm else max(spread, self._scale * self.shrink)
+
+    def normalise(self, phi: np.ndarray | torch.Tensor) -> np.ndarray:
+        """φ / s as float64 NumPy (any leading shape)."""
+        x = phi.detach().cpu().numpy() if isinstance(phi, torch.Tensor) else np.asarray(phi)
+        return x.astype(np.float64) / self.scale
+
+    def state_dict(self) -> dict[str, torch.Tensor]:
+        return {
+            "mean": torch.from_numpy(self._mean.copy()),
+            "square": torch.tensor(self._square, dtype=torch.float64),
+            "weight": torch.tensor(self._weight, dtype=torch.float64),
+            "scale": torch.tensor(self._scale, dtype=torch.float64),
+            "seen": torch.tensor(self.seen),
+        }
+
+    def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
+        self._mean = state["mean"].numpy().astype(np.float64).copy()
+        self._square = float(state["square"])
+        self._weight = float(state["weight"])
+        self._scale = float(state["scale"])
+        self.seen = int(state["seen"])

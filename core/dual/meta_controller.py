@@ -2,8 +2,9 @@
 
 At each step, with φ_t and its best-matching node n:
 
-- LP_{t,n} ≥ 0 (reliable, `LocalWorldModels.reliable`) → model-based: the adaptive rollout of Alg. 1
-  (`core.dual.planning.plan_depth`) sets the horizon H, the rollout's actor actions are the initial plan,
+- reliable (`LocalWorldModels.reliable`: LP_{t,n} ≥ 0, or the held-out verdict of ``dual.reliability``) →
+  model-based: the adaptive rollout of Alg. 1 (continue while the node of the current latent is reliable)
+  sets the horizon H, the rollout's actor actions are the initial plan,
   K gradient steps on L_plan (Eq. 6-7, `core.dual.planning.optimise_plan`) give â^(K), whose first action
   is returned;
 - otherwise → model-free: μ(φ_t).
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 import torch
 
 from core.config import DualConfig
-from core.dual.planning import ActorFn, PlanResult, Rollout, model_rollout, optimise_plan, plan_depth
+from core.dual.planning import ActorFn, PlanResult, Rollout, model_rollout, optimise_plan
 from core.dual.world_models import LocalWorldModels
 
 
@@ -55,10 +56,9 @@ class MetaController:
         if self.fixed_horizon is not None:
             return model_rollout(phi, node, world.bank, actor, self.fixed_horizon,
                                  continue_at=lambda _i, _n: True, locate=world.nearest)
-        if world.itm is None:
-            return model_rollout(phi, node, world.bank, actor, self.config.d_max,
-                                 continue_at=lambda _i, n: world.reliable(n), locate=world.nearest)
-        return plan_depth(phi, node, world.lp, world.itm, world.bank, actor, self.config.d_max)
+        # Alg. 1: the regions' reliability and matching go through the world (its region coordinates).
+        return model_rollout(phi, node, world.bank, actor, self.config.d_max,
+                             continue_at=lambda _i, n: world.reliable(n), locate=world.nearest)
 
     @torch.no_grad()
     def decide(self, phi: torch.Tensor, node: int, actor: ActorFn) -> MetaDecision:
@@ -69,6 +69,7 @@ class MetaController:
             if rollout.depth > 0:
                 cfg = self.config
                 plan = optimise_plan(phi, rollout, self.world.bank, steps=cfg.plan_steps, lr=cfg.plan_lr,
-                                     objective=cfg.plan_objective, r_star=cfg.r_star)
+                                     objective=cfg.plan_objective, r_star=cfg.r_star,
+                                     optimiser=cfg.plan_optimiser, clip=cfg.plan_clip)
                 return MetaDecision(action=plan.action, model_based=True, rollout=rollout, plan=plan)
         return MetaDecision(action=actor(phi)[0], model_based=False)

@@ -17,9 +17,17 @@ the models' weights stay fixed. Decision: the model used at plan step h is that 
 rollout visited (Alg. 1's choice), held fixed during the K steps so the objective stays
 differentiable. The gradient is back-propagated through time by hand (closed-form derivatives of
 the one-hidden-layer tanh models), which costs a few dozen small matrix products instead of an
-autograd graph per step; `plan_loss` is the autograd reference the tests compare it with. The
-optimised first action is clipped to the action range [−1, 1] before it is returned (the environment
-would clip it anyway).
+autograd graph per step; `plan_loss` is the autograd reference the tests compare it with.
+
+Agents act in a normalised action space, [−1, 1]^d (the environment boundary rescales), so the plan's bounds
+are [−1, 1]. Two readings of Eq. 7 (docs/dual-system.md, "Planner"):
+
+- ``optimiser="sgd"``, ``clip="executed"`` (paper): plain steps of α_plan; only the executed first action
+  is clipped to the bounds;
+- ``optimiser="normalised"`` (the gradient scaled to length α over the whole plan) or ``"adam"`` (Adam on
+  the plan, each action moves by about α per step), with α in action units, and ``clip="every_step"``:
+  every action of the plan is projected onto the bounds after every step (projected gradient descent), so
+  the later steps of the plan are optimised for actions that can be executed.
 """
 
 from __future__ import annotations
@@ -36,6 +44,8 @@ from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
 
 PlanObjective = Literal["sum", "per_step"]
+PlanOptimiser = Literal["sgd", "normalised", "adam"]
+PlanClip = Literal["executed", "every_step"]
 ActorFn = Callable[[torch.Tensor], torch.Tensor]
 
 
@@ -67,7 +77,7 @@ class PlanResult:
     action: torch.Tensor
     """First action of â^(K) (clipped to [−1, 1]) ``[action]``."""
     plan: torch.Tensor
-    """The whole optimised plan ``[H, action]`` (unclipped)."""
+    """The whole optimised plan ``[H, action]`` (within the bounds with ``clip="every_step"``)."""
     initial_loss: float
     final_loss: float
 
@@ -171,21 +181,42 @@ def optimise_plan(
     lr: float = 1e-3,
     objective: PlanObjective = "sum",
     r_star: float = 1.0,
+    optimiser: PlanOptimiser = "sgd",
+    clip: PlanClip = "executed",
 ) -> PlanResult:
-    """Eq. 7: â^(i+1) = â^(i) − α_plan ∇ L_plan(â^(i)), K times, from the rollout's actions."""
+    """Eq. 7: K steps on L_plan from the rollout's actions (plain, normalised or Adam; module docstring)."""
     if objective not in ("sum", "per_step"):
         raise ValueError(f"plan objective must be 'sum' or 'per_step', got {objective!r}")
+    if optimiser not in ("sgd", "normalised", "adam"):
+        raise ValueError(f"plan optimiser must be 'sgd', 'normalised' or 'adam', got {optimiser!r}")
+    if clip not in ("executed", "every_step"):
+        raise ValueError(f"plan clip must be 'executed' or 'every_step', got {clip!r}")
     if rollout.depth == 0:
         raise ValueError("optimise_plan needs a rollout of depth >= 1 (the meta-controller chose model-free)")
     model = _PlanModel(bank, rollout.nodes)
     start = torch.as_tensor(phi, dtype=torch.float64).reshape(-1).numpy()
     plan = rollout.actions.detach().to(torch.float64).numpy().copy()
+    if clip == "every_step":
+        np.clip(plan, -1.0, 1.0, out=plan)
+    first = np.zeros_like(plan)
+    second = np.zeros_like(plan)
     initial_loss = None
-    for _ in range(steps):
+    for k in range(1, steps + 1):
         loss, grad = model.loss_and_grad(start, plan, objective, r_star)
         if initial_loss is None:
             initial_loss = loss
-        plan -= lr * grad
+        if optimiser == "sgd":
+            plan -= lr * grad
+        elif optimiser == "normalised":
+            norm = float(np.sqrt((grad * grad).sum()))
+            if norm > 0.0:
+                plan -= lr * grad / norm
+        else:  # Adam on the plan (β = 0.9, 0.999), bias-corrected
+            first = 0.9 * first + 0.1 * grad
+            second = 0.999 * second + 0.001 * grad * grad
+            plan -= lr * (first / (1.0 - 0.9**k)) / (np.sqrt(second / (1.0 - 0.999**k)) + 1e-8)
+        if clip == "every_step":
+            np.clip(plan, -1.0, 1.0, out=plan)
     final_loss, _ = model.loss_and_grad(start, plan, objective, r_star)
     if initial_loss is None:
         initial_loss = final_loss
@@ -211,6 +242,9 @@ class _PlanModel:
         self.br = p["br"].double().numpy()[:, 0]
         self.latent_dim = bank.latent_dim
         self.released = bank.output_activation == "released"
+        self.delta = bank.target == "delta"
+        self.scale = float(bank.latent_scale)
+        self.offset = bank.latent_offset.double().numpy()
 
     def loss_and_grad(
         self, phi: np.ndarray, plan: np.ndarray, objective: PlanObjective, r_star: float
@@ -220,8 +254,9 @@ class _PlanModel:
         hiddens, latent_grads_act, reward_grads_act, inputs = [], [], [], []
         rewards = np.empty(horizon)
         current = phi
+        s, offset = self.scale, self.offset
         for h in range(horizon):
-            x = np.concatenate([current, plan[h]])
+            x = np.concatenate([(current - offset) / s, plan[h]])
             hidden = np.tanh(x @ self.w1[h] + self.b1[h])
             pre_latent = hidden @ self.wm[h] + self.bm[h]
             pre_reward = hidden @ self.wr[h] + self.br[h]
@@ -234,6 +269,7 @@ class _PlanModel:
                 nxt, reward = pre_latent, pre_reward
                 latent_grads_act.append(None)
                 reward_grads_act.append(1.0)
+            nxt = s * nxt + (current if self.delta else offset)
             inputs.append(x)
             hiddens.append(hidden)
             rewards[h] = reward
@@ -251,9 +287,10 @@ class _PlanModel:
         for h in reversed(range(horizon)):
             d_pre_latent = d_next if latent_grads_act[h] is None else d_next * latent_grads_act[h]
             d_pre_reward = d_rewards[h] * reward_grads_act[h]
-            d_hidden = self.wm[h] @ d_pre_latent + self.wr[h] * d_pre_reward
+            d_hidden = self.wm[h] @ (s * d_pre_latent) + self.wr[h] * d_pre_reward
             d_z = d_hidden * (1.0 - hiddens[h] ** 2)
             d_x = self.w1[h] @ d_z
             grad[h] = d_x[d:]
-            d_next = d_x[:d]
+            through_model = d_x[:d] / s  # the model reads (φ̂_h − μ) / s
+            d_next = through_model + d_next if self.delta else through_model  # delta: identity path too
         return float(loss), grad

@@ -1,19 +1,34 @@
 """The self-organised latent world model: ITM regions, their local models and learning progress, kept in step.
 
-`LocalWorldModels` owns one `InstantaneousTopologicalMap`, one `ModelBank` and one `LearningProgress`
-and keeps their per-node state consistent: every node the ITM adds gets a fresh (or parent-copied) model
-and an empty error window; a freed slot is reset before reuse. Per real step it does Alg. 2 lines
-10-11 (`observe_state`: update the map with φ_t, return the best-matching node n) and lines 22 + 25
-(`learn_transition`: the Eq. 8 error of M_n, R_n on (φ_t, a_t, r^ext_t, φ_{t+1}) computed before the
-model's Eq. 5 update, recorded into n's window; returns the error and r_int = −scale·LP_{t,n}).
+`LocalWorldModels` owns one `InstantaneousTopologicalMap`, one `ModelBank`, one `LearningProgress` (Eq.
+8-9) and, when a repair needs it, one `HeldOutReliability`, and keeps their per-node state consistent: every
+node the ITM adds gets a fresh (or parent-copied) model, an empty error window and an empty held-out set; a
+freed or pruned slot is reset before reuse. Per real step it does Alg. 2 lines 10-11 (`observe_state`:
+update the map with φ_t, return the best-matching node n) and lines 22 + 25 (`learn_transition`: the Eq. 8
+error of M_n, R_n on (φ_t, a_t, r^ext_t, φ_{t+1}) computed before the model's Eq. 5 update, recorded into
+n's window; returns the error and r_int).
 
 ``regions=False`` gives the single global model of the baselines (DDPG+CMC, MVE-DDPG): no map, node 0
 always, temporal-only learning progress.
 
-``model_batch > 1`` (a documented option, ``dual.model_batch``): each node also keeps its last
-``model_batch − 1`` real transitions and the Eq. 5 step uses them together with the new one (the mean
-loss over that small per-node minibatch); the LP error is always the new transition's alone. With the
-default 1 the step uses the one real transition, as Alg. 2 line 25 and the released code do.
+Options (docs/dual-system.md, "Mechanisms"; each off in the ``paper`` profile):
+
+- ``model_batch > 1``: each Eq. 5 step uses the new transition and ``model_batch − 1`` older real transitions
+  of the node (the mean loss over that small per-node minibatch): its newest ones, or, with
+  ``model_memory = M``, a uniform sample of its M newest (a model fitted to a sliding window of its last
+  few transitions forgets the rest of its region and is judged better on anything recent); the LP error is
+  always the new transition's alone.
+- ``region_space = normalised``: the map lives in φ / s, s the latent's running RMS spread
+  (`core.dual.itm_resolution.LatentScale`), so e_max is in units of s: when the encoder's latents grow 100×
+  over training, the regions do not move.
+- ``model_space = normalised``: the local models read φ / s and predict changes in units of s
+  (``ModelBank.latent_scale``; s over a longer horizon than the map's): their initial outputs and Adam's step
+  size are relative to the latent's spread, not to its units. ``region_prune_after = N`` removes
+  nodes that have not won for N states.
+- ``reliability = heldout``: every ``heldout_every``-th transition of a node is held out (not trained on) and
+  the node's reliability is judged on it (`core.dual.reliability`); arbitration and Alg. 1's depth use it.
+- ``intrinsic_signal`` / ``intrinsic_region``: r_int = −c·LP (Eq. 9, the region the transition started in,
+  Alg. 2 line 22) or +c·held-out progress of the region the action led into (`intrinsic_reward`).
 """
 
 from __future__ import annotations
@@ -25,10 +40,22 @@ import torch
 
 from core.config import DualConfig
 from core.dual.capacity import grown_capacity
-from core.dual.itm import InstantaneousTopologicalMap
-from core.dual.itm_resolution import RelativeResolution
+from core.dual.itm import InstantaneousTopologicalMap, ItmEvents
+from core.dual.itm_resolution import LatentScale, RelativeResolution
 from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
+from core.dual.reliability import HeldOutReliability
+
+REGION_SCALE_HORIZON = 200
+"""States over which the map's scale averages: short, to follow an encoder whose latents grow 100× in ~2000
+steps (it shrinks only over 20 000, `LatentScale`)."""
+
+MODEL_SCALE_HORIZON = 1000
+"""States over which the models' units (and r_int's) average: long, since what a model has learnt moves with
+them."""
+
+PRUNE_EVERY = 64
+"""States between two sweeps of `InstantaneousTopologicalMap.prune_idle` (``dual.region_prune_after``)."""
 
 
 @dataclass(frozen=True)
@@ -38,7 +65,13 @@ class TransitionFeedback:
     error: float
     """e^prd of the node's model on the transition, before its update (Eq. 8)."""
     intrinsic_reward: float
-    """r_int = −scale·LP_{t,n} after recording the error."""
+    """r_int after recording the error (``dual.intrinsic_signal``, ``dual.intrinsic_region``)."""
+
+
+def needs_heldout(dual: DualConfig) -> bool:
+    """Whether any option reads the held-out verdicts (reliability, intrinsic progress, imagination gate)."""
+    return (dual.reliability == "heldout" or dual.intrinsic_signal == "progress"
+            or dual.imagination_gate == "no_change_ratio")
 
 
 class LocalWorldModels:
@@ -66,6 +99,8 @@ class LocalWorldModels:
             if regions and dual.e_max_relative is not None
             else None
         )
+        self.scale = (LatentScale(latent_dim, horizon=REGION_SCALE_HORIZON)
+                      if regions and dual.region_space == "normalised" else None)
         self.bank = ModelBank(
             latent_dim=latent_dim,
             action_dim=action_dim,
@@ -76,6 +111,8 @@ class LocalWorldModels:
             error_norm=dual.error_norm,
             initial_capacity=capacity,
             generator=generator,
+            target=dual.model_target,
+            termination=dual.model_termination,
         )
         self.lp = LearningProgress(
             window=dual.lp_sigma,
@@ -85,10 +122,29 @@ class LocalWorldModels:
             scale=dual.intrinsic_scale,
             initial_capacity=capacity,
         )
-        self.memory_size = max(0, dual.model_batch - 1)
+        self.heldout = (
+            HeldOutReliability(self.bank, size=dual.heldout_size, every=dual.heldout_every,
+                               lag=dual.reliability_lag, z=dual.reliability_z,
+                               accurate_ratio=dual.accurate_ratio,
+                               initial_capacity=capacity, window=dual.lp_sigma)
+            if needs_heldout(dual) else None
+        )
+        if self.heldout is not None:
+            self.heldout.reset_nodes(np.arange(capacity))
+        self.unit = LatentScale(latent_dim, horizon=MODEL_SCALE_HORIZON)
+        """The latent's running mean and RMS spread over a longer horizon (`LatentScale`): the local models'
+        units (``model_space``) and the repaired r_int's unit."""
+        self.sample_size = max(0, dual.model_batch - 1)
+        """Older transitions of the node in each Eq. 5 step, beside the new one."""
+        self.memory_size = max(self.sample_size, dual.model_memory) if self.sample_size else 0
         self._memory = (
             _NodeMemory(self.memory_size, latent_dim, action_dim, capacity) if self.memory_size else None
         )
+
+    # ------------------------------------------------------------------ region coordinates
+    def region_coordinates(self, phi: torch.Tensor | np.ndarray) -> np.ndarray | torch.Tensor:
+        """What the ITM sees of a latent: φ itself, or φ / s with ``region_space = normalised``."""
+        return phi if self.scale is None else self.scale.normalise(phi)
 
     # ------------------------------------------------------------------ Alg. 2 lines 10-11
     def observe_state(self, phi: torch.Tensor) -> int:
@@ -97,7 +153,27 @@ class LocalWorldModels:
             return 0
         if self.resolution is not None:
             self._set_resolution(self.resolution.observe(phi))
-        events = self.itm.update(phi)
+        if self.scale is not None:
+            self.scale.observe(phi)
+            if not self.scale.warm:  # no unit yet to place nodes in: one region until the scale is known
+                return 0
+        events = self.itm.update(self.region_coordinates(phi))
+        self._follow(events)
+        prune = self.config.region_prune_after
+        if prune and self.itm.updates % PRUNE_EVERY == 0:
+            pruned = self.itm.prune_idle(prune)
+            if pruned:
+                self._reset(list(pruned))
+        return events.winner
+
+    def _sync_model_space(self) -> None:
+        """``model_space = normalised``: the models' unit s follows the latent's running RMS spread. They are
+        not centred: a running mean moves with where the agent is, and would move what they have learnt
+        (the intrinsic check's learnable regions lost their progress that way)."""
+        if self.config.model_space == "normalised":
+            self.bank.latent_scale = self.unit.scale
+
+    def _follow(self, events: ItmEvents) -> None:
         if events.removed:
             self._reset(list(events.removed))
         if events.added:
@@ -105,7 +181,8 @@ class LocalWorldModels:
             self.lp.reset_nodes(list(events.added))
             if self._memory is not None:
                 self._memory.reset(list(events.added))
-        return events.winner
+            if self.heldout is not None:
+                self.heldout.reset_nodes(list(events.added))
 
     def _set_resolution(self, distance: float | None) -> None:
         """Set the ITM's e_max to the L2 threshold `distance` (squared if the map compares squared ones)."""
@@ -116,12 +193,20 @@ class LocalWorldModels:
         self.lp.reset_nodes(nodes)
         if self._memory is not None:
             self._memory.reset(nodes)
+        if self.heldout is not None:
+            self.heldout.reset_nodes(nodes)
 
     def nearest(self, phi: torch.Tensor) -> int:
         """Best-matching node of a (predicted) latent without adapting the map (Alg. 1 line 5)."""
-        if self.itm is None:
+        if self.itm is None or not self.itm.initialised:
             return 0
-        return int(self.itm.nearest(phi)[0])
+        return int(self.itm.nearest(self.region_coordinates(phi))[0])
+
+    def nearest_many(self, phi: torch.Tensor) -> np.ndarray:
+        """Best-matching node of each row of ``phi [B, latent]`` (one batched distance computation)."""
+        if self.itm is None or not self.itm.initialised:
+            return np.zeros(phi.shape[0], dtype=np.int64)
+        return self.itm.nearest(self.region_coordinates(phi))
 
     @property
     def num_nodes(self) -> int:
@@ -129,57 +214,134 @@ class LocalWorldModels:
 
     # ------------------------------------------------------------------ Alg. 2 lines 22 and 25
     def learn_transition(
-        self, node: int, phi: torch.Tensor, action: torch.Tensor, reward_ext: float, next_phi: torch.Tensor
+        self,
+        node: int,
+        phi: torch.Tensor,
+        action: torch.Tensor,
+        reward_ext: float,
+        next_phi: torch.Tensor,
+        terminated: bool = False,
     ) -> TransitionFeedback:
-        """Eq. 8 error (before the update) → LP window of ``node``; one Eq. 5 step of ``node``'s model."""
+        """Eq. 8 error (before the update) → LP window of ``node``; one Eq. 5 step of ``node``'s model.
+
+        With held-out reliability every ``heldout_every``-th transition of the node goes to its held-out set
+        and the step uses the node's recent transitions only.
+        """
         phi = phi.reshape(1, -1)
         action = torch.as_tensor(action, dtype=torch.float32).reshape(1, -1)
         next_phi = next_phi.reshape(1, -1)
         reward = torch.tensor([float(reward_ext)])
-        if self._memory is not None and self._memory.count(node) > 0:
-            old = self._memory.get(node)
-            count = old[0].shape[0]
-            errors = self.bank.update(
-                torch.full((count + 1,), node, dtype=torch.int64),
-                torch.cat([phi, old[0]]), torch.cat([action, old[1]]),
-                torch.cat([next_phi, old[3]]), torch.cat([reward, old[2]]),
-            )
+        done = torch.tensor([float(terminated)])
+        held_out = self.heldout is not None and self.heldout.route_to_heldout(node)
+        old = self._recent(node)
+        if held_out:
+            before = self.bank.predict(torch.tensor([node]), phi, action)
+            error = float(self.bank.errors(before.next_latent, before.reward, next_phi, reward)[0])
+            self.heldout.add(node, phi, action, float(reward_ext), next_phi)
+            if old is not None:
+                self.bank.update(torch.full((old[0].shape[0],), node, dtype=torch.int64), old[0], old[1],
+                                 old[3], old[2], old[4])
         else:
-            errors = self.bank.update(torch.tensor([node]), phi, action, next_phi, reward)
-        if self._memory is not None:
-            self._memory.add(node, phi[0], action[0], float(reward_ext), next_phi[0])
-        error = float(errors[0])
+            if old is not None:
+                count = old[0].shape[0]
+                errors = self.bank.update(
+                    torch.full((count + 1,), node, dtype=torch.int64),
+                    torch.cat([phi, old[0]]), torch.cat([action, old[1]]),
+                    torch.cat([next_phi, old[3]]), torch.cat([reward, old[2]]), torch.cat([done, old[4]]),
+                )
+            else:
+                errors = self.bank.update(torch.tensor([node]), phi, action, next_phi, reward, done)
+            error = float(errors[0])
+            if self._memory is not None:
+                self._memory.add(node, phi[0], action[0], float(reward_ext), next_phi[0], float(terminated))
         self.lp.record([node], [error])
-        return TransitionFeedback(error=error, intrinsic_reward=float(self.lp.intrinsic_reward(node)[0]))
+        if self.heldout is not None:
+            no_change = float(self.bank.errors(phi, torch.zeros(1), next_phi, reward)[0])
+            self.heldout.record(node, error, no_change)
+        self.unit.observe(phi[0])
+        self._sync_model_space()
+        if self.heldout is not None and (old is not None or not held_out):
+            self.heldout.after_update([node])
+        return TransitionFeedback(error=error, intrinsic_reward=self.intrinsic_reward(node, next_phi))
+
+    def _recent(self, node: int) -> tuple[torch.Tensor, ...] | None:
+        """Up to ``model_batch − 1`` of the node's stored transitions: the newest (``model_memory`` 0), or a
+        uniform sample of the ``model_memory`` newest (drawn with the bank's generator)."""
+        if self._memory is None or self._memory.count(node) == 0:
+            return None
+        stored = self._memory.get(node)
+        count = stored[0].shape[0]
+        if count <= self.sample_size:
+            return stored
+        rows = torch.randperm(count, generator=self.bank.generator)[: self.sample_size]
+        return tuple(column[rows] for column in stored)
+
+    def intrinsic_reward(self, node: int, next_phi: torch.Tensor) -> float:
+        """r_int of a transition from region ``node`` to latent ``next_phi`` (Alg. 2 line 22, or the repair).
+
+        ``intrinsic_region``: source → the LP of ``node``; destination → the LP of the region ``next_phi``
+        falls in (the consequence of the action). ``intrinsic_signal``: neg_lp → −c·LP (Eq. 9, released
+        normalisation); progress → +c·(held-out progress) / s, s the latent's RMS spread (`unit`; squared
+        with squared Eq. 8 errors).
+        """
+        cfg = self.config
+        region = node if cfg.intrinsic_region == "source" else self.nearest(next_phi)
+        if cfg.intrinsic_signal == "neg_lp":
+            return float(self.lp.intrinsic_reward(region)[0])
+        assert self.heldout is not None
+        unit = self.unit.scale if cfg.error_norm == "l2" else self.unit.scale**2
+        return float(cfg.intrinsic_scale * self.heldout.progress_of(region)[0] / unit)
 
     def learn_batch(
         self, phi: torch.Tensor, action: torch.Tensor, reward_ext: torch.Tensor, next_phi: torch.Tensor
     ) -> torch.Tensor:
         """One Eq. 5 step of the global model (node 0) on a minibatch; returns the pre-update errors (MVE)."""
+        for row in phi:
+            self.unit.observe(row)
+        self._sync_model_space()
         nodes = torch.zeros(phi.shape[0], dtype=torch.int64)
         errors = self.bank.update(nodes, phi, action, next_phi, reward_ext)
         return errors
 
     def refit(
-        self, phi: torch.Tensor, action: torch.Tensor, reward_ext: torch.Tensor, next_phi: torch.Tensor
+        self,
+        phi: torch.Tensor,
+        action: torch.Tensor,
+        reward_ext: torch.Tensor,
+        next_phi: torch.Tensor,
+        terminated: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """One Eq. 5 step of each node a batch of re-encoded real transitions touches (``dual.refit_every``).
 
         Each sample goes to its nearest node (the map is not adapted, as in Alg. 1 line 5); each touched
         node takes one Adam step on the mean loss of its samples. The learning-progress windows are left
-        alone: they hold the errors of the real transitions as they arrived. Returns the pre-update Eq. 8
-        errors ``[B]``, i.e. how far the models had drifted from the current encoder's latents.
+        alone: they hold the errors of the real transitions as they arrived; the held-out verdicts of the
+        touched nodes are re-judged. Returns the pre-update Eq. 8 errors ``[B]``, i.e. how far the models had
+        drifted from the current encoder's latents.
         """
-        if self.itm is None:
-            nodes = torch.zeros(phi.shape[0], dtype=torch.int64)
-        else:
-            nodes = torch.from_numpy(self.itm.nearest(phi))
-        return self.bank.update(nodes, phi, action, next_phi, reward_ext)
+        nodes = torch.from_numpy(self.nearest_many(phi))
+        errors = self.bank.update(nodes, phi, action, next_phi, reward_ext, terminated)
+        if self.heldout is not None:
+            self.heldout.evaluate(torch.unique(nodes).numpy())
+        return errors
 
     # ------------------------------------------------------------------ queries
     def reliable(self, node: int) -> bool:
-        """LP_{t,n} ≥ 0 (Section 2.3.2): the meta-controller may use the model-based system."""
-        return bool(self.lp.reliable(node)[0])
+        """Section 2.3.2's test: LP_{t,n} ≥ 0 (paper) or the held-out verdict (``dual.reliability``)."""
+        return bool(self.reliable_many(np.array([node]))[0])
+
+    def reliable_many(self, nodes: np.ndarray) -> np.ndarray:
+        """`reliable` for an array of nodes (vectorised)."""
+        if self.config.reliability == "heldout":
+            assert self.heldout is not None
+            return self.heldout.is_trusted(nodes)
+        return self.lp.reliable(nodes)
+
+    def imagination_share(self, nodes: np.ndarray) -> np.ndarray:
+        """Probability of keeping an imagined transition each node predicted (``dual.imagination_gate``)."""
+        if self.config.imagination_gate == "none" or self.heldout is None:
+            return np.ones(np.asarray(nodes).shape[0])
+        return self.heldout.share(nodes)
 
     def learning_progress(self, node: int) -> float:
         return float(self.lp.learning_progress(node)[0])
@@ -202,7 +364,12 @@ class LocalWorldModels:
             state["memory"] = self._memory.state_dict()
         if self.resolution is not None:
             state["resolution"] = self.resolution.state_dict()
+        if self.scale is not None:
+            state["scale"] = self.scale.state_dict()
+        if self.heldout is not None:
+            state["heldout"] = self.heldout.state_dict()
         state["generator"] = {"state": self.bank.generator.get_state()}
+        state["unit"] = self.unit.state_dict()
         return state
 
     def load_state_dict(self, state: dict[str, dict[str, torch.Tensor]]) -> None:
@@ -215,6 +382,12 @@ class LocalWorldModels:
         if self.resolution is not None:
             self.resolution.load_state_dict(state["resolution"])
             self._set_resolution(self.resolution.current)
+        if self.scale is not None:
+            self.scale.load_state_dict(state["scale"])
+        self.unit.load_state_dict(state["unit"])
+        self._sync_model_space()
+        if self.heldout is not None:
+            self.heldout.load_state_dict(state["heldout"])
         self.bank.generator.set_state(state["generator"]["state"])
 
 
@@ -227,6 +400,7 @@ class _NodeMemory:
         self.action = np.zeros((capacity, size, action_dim), dtype=np.float32)
         self.reward = np.zeros((capacity, size), dtype=np.float32)
         self.next_latent = np.zeros((capacity, size, latent_dim), dtype=np.float32)
+        self.terminated = np.zeros((capacity, size), dtype=np.float32)
         self.written = np.zeros(capacity, dtype=np.int64)
 
     def _grow(self, node: int) -> None:
@@ -241,25 +415,29 @@ class _NodeMemory:
         self.next_latent = np.concatenate(
             [self.next_latent, np.zeros((pad, *self.next_latent.shape[1:]), np.float32)]
         )
+        self.terminated = np.concatenate([self.terminated, np.zeros((pad, self.size), np.float32)])
         self.written = np.concatenate([self.written, np.zeros(pad, np.int64)])
 
     def count(self, node: int) -> int:
         self._grow(node)
         return int(min(self.written[node], self.size))
 
-    def get(self, node: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+    def get(self, node: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(φ, a, r, φ′, terminated) of the node's stored transitions."""
         n = self.count(node)
         return (torch.from_numpy(self.latent[node, :n]), torch.from_numpy(self.action[node, :n]),
-                torch.from_numpy(self.reward[node, :n]), torch.from_numpy(self.next_latent[node, :n]))
+                torch.from_numpy(self.reward[node, :n]), torch.from_numpy(self.next_latent[node, :n]),
+                torch.from_numpy(self.terminated[node, :n]))
 
     def add(self, node: int, latent: torch.Tensor, action: torch.Tensor, reward: float,
-            next_latent: torch.Tensor) -> None:
+            next_latent: torch.Tensor, terminated: float = 0.0) -> None:
         self._grow(node)
         slot = int(self.written[node] % self.size)
         self.latent[node, slot] = latent.numpy()
         self.action[node, slot] = action.numpy()
         self.reward[node, slot] = reward
         self.next_latent[node, slot] = next_latent.numpy()
+        self.terminated[node, slot] = terminated
         self.written[node] += 1
 
     def reset(self, nodes: list[int]) -> None:
@@ -272,6 +450,7 @@ class _NodeMemory:
                 "action": torch.from_numpy(self.action.copy()),
                 "reward": torch.from_numpy(self.reward.copy()),
                 "next_latent": torch.from_numpy(self.next_latent.copy()),
+                "terminated": torch.from_numpy(self.terminated.copy()),
                 "written": torch.from_numpy(self.written.copy())}
 
     def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
@@ -279,4 +458,8 @@ class _NodeMemory:
         self.action = state["action"].numpy().copy()
         self.reward = state["reward"].numpy().copy()
         self.next_latent = state["next_latent"].numpy().copy()
+        if "terminated" in state:
+            self.terminated = state["terminated"].numpy().copy()
+        else:  # written before the termination head existed
+            self.terminated = np.zeros(self.reward.shape, dtype=np.float32)
         self.written = state["written"].numpy().copy()

@@ -1,6 +1,7 @@
-"""NicoGrasp, the paper's vision-based grasping task, and its camera domains.
+"""NicoGrasp, the paper's vision-based grasping task, and its camera domains; ThreeRegions, the controlled
+problem of the intrinsic-reward check.
 
-Importing this package registers the gymnasium id ``dualsys/NicoGrasp-v0``.
+Importing this package registers the gymnasium ids ``dualsys/NicoGrasp-v0`` and ``dualsys/ThreeRegions-v0``.
 """
 
 from __future__ import annotations
@@ -11,20 +12,27 @@ from core.envs.camera import CameraPose, CameraShift, Lighting
 from core.envs.nico_grasp import NicoGraspEnv, PhysicsSettings
 from core.envs.oracle import oracle_action, run_oracle
 from core.envs.robot_description import ArmGeometry
+from core.envs.three_regions import ThreeRegionsEnv
 
 ENV_ID = "dualsys/NicoGrasp-v0"
+THREE_REGIONS_ID = "dualsys/ThreeRegions-v0"
 
 if ENV_ID not in gym.registry:
     gym.register(id=ENV_ID, entry_point="core.envs.nico_grasp:NicoGraspEnv", max_episode_steps=None)
+if THREE_REGIONS_ID not in gym.registry:
+    gym.register(id=THREE_REGIONS_ID, entry_point="core.envs.three_regions:ThreeRegionsEnv",
+                 max_episode_steps=None)
 
 __all__ = [
     "ENV_ID",
+    "THREE_REGIONS_ID",
     "ArmGeometry",
     "CameraPose",
     "CameraShift",
     "Lighting",
     "NicoGraspEnv",
     "PhysicsSettings",
+    "ThreeRegionsEnv",
     "oracle_action",
     "run_oracle",
 ]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from core.config import load_config
+from core.config import PAPER_DUAL_OVERRIDES, load_config
 from core.dual.imagination import imagination_probability, imagination_update, la_imagination_rollout
 from core.dual.meta_controller import MetaController
 from core.dual.value_expansion import ValueExpansionActorCritic
@@ -25,6 +25,8 @@ from core.runs.methods import make_agent
 SPEC = EnvSpec(obs_shape=(32, 64, 3), action_dim=1)
 SMALL = ["net.conv_channels=4,4,4", "agent.buffer_size=300", "dual.pixel_buffer_size=300",
          "dual.latent_buffer_size=1000", "agent.batch_size=8", "dual.latent_batch_size=8"]
+LITERAL = [*PAPER_DUAL_OVERRIDES, "dual.intrinsic_scale=0.1"]
+"""The paper's reading of the dual section (docs/dual-system.md, "Mechanisms": every repair off)."""
 
 
 def _agent(algo: str, *overrides: str):
@@ -44,7 +46,7 @@ def _step(agent, obs: np.ndarray, reward: float = 0.0) -> np.ndarray:
 
 
 def test_i2a_adds_exactly_h_imagined_transitions_per_model_based_step() -> None:
-    agent = _agent("i2a")
+    agent = _agent("i2a", *LITERAL)
     obs = _obs()
     agent.begin_episode(obs)
     model_based_steps = 0
@@ -64,7 +66,7 @@ def test_i2a_adds_exactly_h_imagined_transitions_per_model_based_step() -> None:
 
 
 def test_arbitration_model_free_ablation_never_plans_but_keeps_intrinsic_reward() -> None:
-    agent = _agent("i2a", "dual.arbitration=model_free")
+    agent = _agent("i2a", *LITERAL, "dual.arbitration=model_free")
     obs = _obs()
     agent.begin_episode(obs)
     for _ in range(80):  # the same repeated image makes the full I2A go model-based (test above)
@@ -76,7 +78,7 @@ def test_arbitration_model_free_ablation_never_plans_but_keeps_intrinsic_reward(
 
 
 def test_plan_action_shift_is_the_distance_of_the_executed_action_from_the_actors() -> None:
-    agent = _agent("im2c", "dual.plan_lr=0.5")
+    agent = _agent("im2c", *LITERAL, "dual.plan_lr=0.5")
     obs = _obs()
     agent.begin_episode(obs)
     for _ in range(80):
@@ -90,7 +92,7 @@ def test_plan_action_shift_is_the_distance_of_the_executed_action_from_the_actor
 
 
 def test_im2c_stores_nothing_imagined_and_stores_r_ext_plus_r_int() -> None:
-    agent = _agent("im2c")
+    agent = _agent("im2c", *LITERAL)
     obs = _obs(1)
     agent.begin_episode(obs)
     for _ in range(10):
@@ -121,11 +123,12 @@ def test_greedy_act_is_mu_of_f_and_changes_no_learning_state() -> None:
     assert after[1:] == snapshot[1:]
     for part, tensors in snapshot[0].items():
         for key, value in tensors.items():
-            assert torch.equal(after[0][part][key], value), (part, key)
+            torch.testing.assert_close(after[0][part][key], value, rtol=0, atol=0, equal_nan=True,
+                                       msg=f"{part}.{key}")
 
 
 def _global_world(*overrides: str) -> LocalWorldModels:
-    config = load_config("default", list(overrides))
+    config = load_config("default", [*LITERAL, *overrides])
     return LocalWorldModels(config.dual, latent_dim=4, action_dim=1, regions=False,
                             generator=torch.Generator().manual_seed(0))
 
@@ -137,7 +140,7 @@ def _actor():
 
 def test_meta_controller_model_free_when_lp_negative_and_fixed_horizon_when_reliable() -> None:
     world = _global_world()
-    dual = load_config("default").dual
+    dual = world.config
     meta = MetaController(world, dual, fixed_horizon=3)
     phi = torch.rand(1, 4)
     actor = _actor()
@@ -229,7 +232,7 @@ def test_imagination_update_is_algorithm_3_lines_34_to_37(ac: str) -> None:
 
 
 def test_mve_target_expands_h_model_steps() -> None:
-    config = load_config("default", ["net.conv_channels=4,4,4"])
+    config = load_config("default", ["net.conv_channels=4,4,4", *LITERAL])
     world = LocalWorldModels(config.dual, 32, 1, regions=False)
     bank = world.bank
     for name in ("w1", "b1", "wm", "wr"):
@@ -253,7 +256,7 @@ def test_mve_target_expands_h_model_steps() -> None:
 
 
 def test_world_models_follow_itm_events_and_report_pre_update_error() -> None:
-    config = load_config("default", ["dual.e_max=0.5"])
+    config = load_config("default", [*LITERAL, "dual.e_max=0.5"])
     world = LocalWorldModels(config.dual, latent_dim=3, action_dim=1,
                              generator=torch.Generator().manual_seed(0))
     a = torch.tensor([0.2])
@@ -271,7 +274,7 @@ def test_world_models_follow_itm_events_and_report_pre_update_error() -> None:
 
 
 def test_model_batch_option_trains_on_the_node_recent_transitions() -> None:
-    config = load_config("default", ["dual.model_batch=3"])
+    config = load_config("default", [*LITERAL, "dual.model_batch=3"])
     world = LocalWorldModels(config.dual, 2, 1, regions=False, generator=torch.Generator().manual_seed(0))
     twin = copy.deepcopy(world.bank)
     samples = [(torch.rand(2), torch.rand(1), float(i), torch.rand(2)) for i in range(4)]
@@ -307,7 +310,7 @@ def test_agent_state_round_trips_through_weights_only_load() -> None:
 
 
 def test_refit_steps_each_nearest_node_once_and_leaves_the_rest_and_lp_alone() -> None:
-    config = load_config("default", ["dual.e_max=0.5"])
+    config = load_config("default", [*LITERAL, "dual.e_max=0.5"])
     world = LocalWorldModels(config.dual, latent_dim=2, action_dim=1,
                              generator=torch.Generator().manual_seed(0))
     for point in ([0.0, 0.0], [3.0, 0.0], [0.0, 3.0]):
@@ -348,7 +351,7 @@ def test_agent_refits_every_n_real_steps_on_its_replay_and_reports_the_drift() -
     assert len(agent.counters.refit_errors) == 4
     diagnostics = agent.episode_diagnostics()
     assert np.isfinite(diagnostics["dual/refit_error"])
-    assert "dual/refit_error" not in _agent("im2c").episode_diagnostics()
+    assert "dual/refit_error" not in _agent("im2c", "dual.refit_every=0").episode_diagnostics()
 
 
 def test_no_change_error_is_eq8_of_predicting_phi_t_and_zero_reward() -> None:
@@ -361,3 +364,62 @@ def test_no_change_error_is_eq8_of_predicting_phi_t_and_zero_reward() -> None:
     expected = float((next_phi - phi).norm() + 0.5)
     assert agent.counters.naive_errors == [pytest.approx(expected, rel=1e-5)]
     assert agent.episode_diagnostics()["dual/no_change_error"] == pytest.approx(expected, rel=1e-5)
+
+
+class _CountingModel:
+    """An ImaginationModel on a 1-D line: φ′ = φ + 1, reward = φ, terminal once φ′ ≥ 3, a fixed share."""
+
+    def __init__(self, share: float) -> None:
+        self._share = share
+
+    def locate(self, phi):
+        return np.zeros(phi.shape[0], dtype=np.int64)
+
+    def proceed(self, regions):
+        return np.ones(regions.shape[0], dtype=bool)
+
+    def predict(self, regions, phi, action):
+        from core.dual.model_bank import ModelPrediction
+
+        nxt = phi + 1.0
+        return ModelPrediction(next_latent=nxt, reward=phi[:, 0], done=(nxt[:, 0] >= 3.0).float())
+
+    def share(self, regions):
+        return np.full(regions.shape[0], self._share)
+
+
+def test_learn_time_imagination_follows_the_model_stops_at_termination_and_is_gated() -> None:
+    from core.dual.imagination import imagine
+
+    starts = torch.tensor([[0.0], [1.0], [2.5]])
+    batch = imagine(starts, _CountingModel(1.0), lambda phi: torch.zeros(phi.shape[0], 1), 5,
+                    np.random.default_rng(0), limit=100)
+    # 0 → 1 → 2 → 3 (done), 1 → 2 → 3 (done), 2.5 → 3.5 (done): six transitions, three terminal.
+    assert batch.latent.shape[0] == 6 and float(batch.done.sum()) == 3.0
+    torch.testing.assert_close(batch.next_latent, batch.latent + 1.0)
+    assert set(batch.latent[:, 0].tolist()) == {0.0, 1.0, 2.0, 2.5}
+    assert imagine(starts, _CountingModel(0.0), lambda phi: torch.zeros(phi.shape[0], 1), 5,
+                   np.random.default_rng(0), limit=100) is None
+    limited = imagine(starts, _CountingModel(1.0), lambda phi: torch.zeros(phi.shape[0], 1), 5,
+                      np.random.default_rng(0), limit=4)
+    assert limited.latent.shape[0] == 4
+
+
+def test_i2a_imagines_at_learn_time_from_the_current_encoder_and_stores_nothing() -> None:
+    agent = _agent("i2a", "agent.learning_starts=4")
+    obs = _obs(5)
+    agent.begin_episode(obs)
+    for step in range(30):
+        _step(agent, _obs(step % 3))
+        agent.update_after_step()
+    assert len(agent.latent_replay) == 0  # B_latent of Alg. 3 line 17 is not used
+    agent.world.heldout.trusted[:] = True  # every region trusted: the rollouts run up to D_max steps
+    agent.world.heldout.ratio[:] = 0.0  # and every transition passes the gate
+    frames = torch.from_numpy(np.stack([_obs(0), _obs(1)]))
+    batch = agent._imagine_from(frames)
+    with torch.no_grad():
+        current = agent.learner.encode(frames)
+    assert batch is not None and batch.latent.shape[0] <= agent.config.dual.latent_batch_size
+    first_steps = [row for row in batch.latent if any(torch.allclose(row, c, atol=1e-6) for c in current)]
+    assert first_steps  # rollouts start at the minibatch's latents under the encoder as it is now
+    assert agent.counters.imagined >= batch.latent.shape[0]

@@ -129,3 +129,25 @@ def test_wrong_stimulus_size_raises() -> None:
     itm = InstantaneousTopologicalMap(dim=3, e_max=1.0)
     with pytest.raises(ValueError, match="3 components"):
         itm.update(np.zeros(2))
+
+
+def test_prune_idle_removes_nodes_that_stopped_winning_and_keeps_two() -> None:
+    itm = _map([(0.0, 0.0), (10.0, 0.0)], e_max=1.0)
+    for x in (20.0, 30.0):
+        assert itm.update(np.array([x, 0.0])).added  # nodes 2, 3
+    for _ in range(5):
+        itm.update(np.array([30.0, 0.1]))  # node 3 keeps winning
+    # Idle for more than 3 updates: 0 and 1 (7), 2 (6); 2 is the most recent winner of them and is spared.
+    removed = itm.prune_idle(max_idle=3)
+    assert removed == (0, 1)
+    assert itm.alive_ids().tolist() == [2, 3] and itm.edges() == {(2, 3)}
+    assert itm.prune_idle(max_idle=3) == ()  # never below two nodes
+    # A pruned slot is reused by the next node.
+    events = itm.update(np.array([-20.0, 0.0]))
+    assert events.added and events.added[0] in removed
+
+
+def test_update_without_growth_only_matches() -> None:
+    itm = _map([(0.0, 0.0), (1.0, 0.0)], e_max=1.0)
+    events = itm.update(np.array([0.0, 3.0]), grow=False)
+    assert events.added == () and itm.num_nodes == 2

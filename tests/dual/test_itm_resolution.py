@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from core.config import load_config
+from core.config import PAPER_DUAL_OVERRIDES, load_config
 from core.dual.itm_resolution import RelativeResolution
 from core.dual.world_models import LocalWorldModels
 
@@ -27,7 +27,8 @@ def test_relative_e_max_is_rho_times_the_median_pairwise_distance():
 
 
 def _world(*overrides: str) -> LocalWorldModels:
-    dual = load_config("default", list(overrides)).dual
+    """The paper's raw-latent ITM (e_max = 6), where the e_max_relative option applies."""
+    dual = load_config("default", [*PAPER_DUAL_OVERRIDES, *overrides]).dual
     return LocalWorldModels(dual, latent_dim=8, action_dim=1, generator=torch.Generator().manual_seed(0))
 
 
@@ -89,3 +90,35 @@ def test_diagnose_regions_reports_distances_and_node_counts(tmp_path):
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert bad.returncode == 2 and "error: --e-max" in bad.stderr
+
+
+def test_latent_scale_is_scale_free_and_shrinks_slowly() -> None:
+    from core.dual.itm_resolution import LatentScale
+
+    latents = np.random.default_rng(2).normal(size=(400, 8))
+    one, hundred = LatentScale(8), LatentScale(8)
+    for phi in latents:
+        one.observe(phi)
+        hundred.observe(100.0 * phi)
+    assert hundred.scale == pytest.approx(100.0 * one.scale, rel=1e-9)
+    np.testing.assert_allclose(hundred.normalise(100.0 * latents[:5]), one.normalise(latents[:5]), rtol=1e-9)
+    assert one.scale == pytest.approx(np.sqrt(8.0), rel=0.2)  # RMS distance from the mean
+    grown = one.scale
+    for phi in latents[:200]:  # the latents gather in a corner: the recent spread drops 100×
+        one.observe(0.01 * phi)
+    assert one.scale > 0.95 * grown  # s follows a spread up at once and down over ~20 000 states
+
+
+def test_normalised_regions_count_the_same_at_any_latent_scale() -> None:
+    from core.dual.checks.regions import episode_stream, node_count
+
+    dual = load_config("default").dual
+    latents = episode_stream(1200, seed=3)
+    counts = [node_count(dual, latents * scale) for scale in (0.01, 1.0, 100.0)]
+    assert max(counts) <= min(counts) + 1 and min(counts) >= 5
+    # An encoder whose latents grow 100× over 3000 states (ours: about 2300 steps, docs/results.md).
+    longer = episode_stream(3000, seed=3)
+    growing = longer * np.geomspace(0.01, 1.0, len(longer))[:, None]
+    assert node_count(dual, growing) <= 2 * node_count(dual, longer)
+    literal = [node_count(load_config("paper").dual, latents * scale) for scale in (0.01, 100.0)]
+    assert literal[0] == 2 and literal[1] > 100

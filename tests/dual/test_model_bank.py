@@ -158,3 +158,74 @@ def test_bad_options_and_shapes_raise() -> None:
     ids, phi, act, nxt, rew = _batch([0, 1])
     with pytest.raises(ValueError, match="node ids"):
         bank.update(ids[:1], phi, act, nxt, rew)
+
+
+class _DeltaModel(nn.Module):
+    """The reference for the repaired model: reads (φ − μ)/s, φ̂′ = φ + s·M, a termination logit head."""
+
+    def __init__(self, bank: ModelBank, node: int) -> None:
+        super().__init__()
+        self.base = _NodeModel(bank, node)
+        self.done = nn.Linear(HIDDEN, 1)
+        with torch.no_grad():
+            self.done.weight.copy_(bank.params["wd"][node].T)
+            self.done.bias.copy_(bank.params["bd"][node])
+        self.scale, self.offset = bank.latent_scale, bank.latent_offset
+
+    def forward(self, phi, action):
+        x = torch.cat([(phi - self.offset) / self.scale, action], dim=-1)
+        h = torch.tanh(self.base.hidden(x))
+        latent = phi + self.scale * self.base.latent(h)
+        return latent, self.base.reward(h).squeeze(-1), self.done(h).squeeze(-1)
+
+
+@pytest.mark.parametrize("ids", [[1, 1, 1], [0, 2, 2, 3]])  # the one-node fast path and the general path
+def test_delta_model_with_termination_head_in_normalised_units_equals_autograd(ids: list[int]) -> None:
+    bank = _bank(target="delta", termination=True)
+    bank.latent_scale = 0.3
+    bank.latent_offset = torch.linspace(-1.0, 1.0, LATENT)
+    bank.ensure_capacity(4)
+    assert bank.params["wr"][0].abs().sum() == 0 and bank.params["br"][0].abs().sum() == 0  # r̂ starts at 0
+    refs = {n: _DeltaModel(bank, n) for n in set(ids)}
+    opts = {n: torch.optim.Adam([*refs[n].parameters()], lr=1e-2) for n in refs}
+    ids_t, phi, act, nxt, rew = _batch(ids)
+    done = torch.tensor([float(i % 2) for i in range(len(ids))])
+    for node in refs:
+        rows = [i for i, n in enumerate(ids) if n == node]
+        p_next, p_r, logit = refs[node](phi[rows], act[rows])
+        bce = torch.nn.functional.binary_cross_entropy_with_logits(logit, done[rows], reduction="none")
+        loss = (((p_next - nxt[rows]) ** 2).sum(-1) + (p_r - rew[rows]) ** 2 + bce).mean()
+        opts[node].zero_grad()
+        loss.backward()
+        opts[node].step()
+    bank.update(ids_t, phi, act, nxt, rew, done)
+    for node, ref in refs.items():
+        for k, value in {**ref.base.flat(), "wd": ref.done.weight.T, "bd": ref.done.bias}.items():
+            torch.testing.assert_close(bank.params[k][node], value.detach(), atol=1e-6, rtol=0)
+        predicted = bank.predict(torch.tensor([node]), phi[:1], act[:1])
+        with torch.no_grad():
+            p_next, p_r, logit = ref(phi[:1], act[:1])
+        torch.testing.assert_close(predicted.next_latent, p_next, atol=1e-5, rtol=0)
+        torch.testing.assert_close(predicted.done, torch.sigmoid(logit), atol=1e-6, rtol=0)
+
+
+def test_one_node_fast_path_equals_per_node_adam() -> None:
+    bank = _bank(error_norm="l2")
+    ref = _NodeModel(bank, 2)
+    opt = torch.optim.Adam(ref.parameters(), lr=1e-2)
+    for seed in range(3):
+        ids, phi, act, nxt, rew = _batch([2, 2, 2, 2], seed=seed)
+        p_next, p_r = ref(phi, act)
+        loss = (((p_next - nxt) ** 2).sum(-1) + (p_r - rew) ** 2).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        errors = bank.update(ids, phi, act, nxt, rew)
+        torch.testing.assert_close(errors, (p_next - nxt).norm(dim=-1).detach() + (p_r - rew).abs().detach())
+    for k, value in ref.flat().items():
+        torch.testing.assert_close(bank.params[k][2], value.detach(), atol=1e-6, rtol=0)
+
+
+def test_delta_needs_linear_outputs() -> None:
+    with pytest.raises(ValueError, match="delta"):
+        _bank(target="delta", output_activation="released")

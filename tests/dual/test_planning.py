@@ -114,3 +114,53 @@ def test_optimise_plan_rejects_empty_rollout_and_bad_objective() -> None:
         optimise_plan(torch.zeros(2), empty, bank)
     with pytest.raises(ValueError, match="objective"):
         optimise_plan(torch.zeros(2), empty, bank, objective="max")
+
+
+@pytest.mark.parametrize("optimiser", ["normalised", "adam"])
+def test_step_relative_optimisers_lower_the_loss_by_action_sized_steps(optimiser: str) -> None:
+    bank, nodes, phi, plan = _random_setup()
+    rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan * 0.5, rewards=torch.zeros(4),
+                      next_latents=phi[None].repeat(4, 1), nodes=nodes)
+    sgd = optimise_plan(phi, rollout, bank, steps=10, lr=1e-3)
+    result = optimise_plan(phi, rollout, bank, steps=10, lr=0.05, optimiser=optimiser, clip="every_step")
+    assert result.final_loss < result.initial_loss
+    moved = float((result.plan - rollout.actions).abs().max())
+    assert 0.05 <= moved <= 0.6  # about α per step, about K·α at most; plain SGD at the paper's α: ~0
+    assert float((sgd.plan - rollout.actions).abs().max()) < 0.01
+
+
+def test_every_step_clip_keeps_every_plan_action_in_bounds() -> None:
+    bank, nodes, phi, plan = _random_setup()
+    rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
+                      next_latents=phi[None].repeat(4, 1), nodes=nodes)
+    literal = optimise_plan(phi, rollout, bank, steps=10, lr=50.0)
+    assert float(literal.plan.abs().max()) > 1.0  # Eq. 7 as printed: only the executed action is clipped
+    assert float(literal.action.abs().max()) <= 1.0
+    projected = optimise_plan(phi, rollout, bank, steps=10, lr=50.0, clip="every_step")
+    assert float(projected.plan.abs().max()) <= 1.0
+    ref = plan_loss(phi, projected.plan, nodes, bank)
+    assert float(ref) == pytest.approx(projected.final_loss, rel=1e-5)
+
+
+def test_hand_written_gradient_equals_autograd_for_a_delta_model_in_normalised_units() -> None:
+    bank = ModelBank(latent_dim=4, action_dim=1, hidden=20, target="delta", termination=True,
+                     generator=torch.Generator().manual_seed(7), initial_capacity=8)
+    bank.params["wr"].normal_(0.0, 0.3)  # a delta model's reward head starts at 0: give it a slope
+    bank.latent_scale, bank.latent_offset = 0.2, torch.tensor([0.5, -0.5, 0.1, 0.0])
+    _, nodes, phi, plan = _random_setup()
+    a = plan.clone().requires_grad_(True)
+    (grad,) = torch.autograd.grad(plan_loss(phi, a, nodes, bank, "sum", r_star=0.7), a)
+    rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
+                      next_latents=phi[None].repeat(4, 1), nodes=nodes)
+    one = optimise_plan(phi, rollout, bank, steps=1, lr=1.0, objective="sum", r_star=0.7)
+    torch.testing.assert_close(plan - one.plan, grad, atol=1e-5, rtol=1e-4)
+
+
+def test_bad_optimiser_and_clip_raise() -> None:
+    bank, nodes, phi, plan = _random_setup()
+    rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
+                      next_latents=phi[None].repeat(4, 1), nodes=nodes)
+    with pytest.raises(ValueError, match="optimiser"):
+        optimise_plan(phi, rollout, bank, optimiser="lbfgs")
+    with pytest.raises(ValueError, match="clip"):
+        optimise_plan(phi, rollout, bank, clip="never")

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from core.config import PROFILES, Config, ConfigError, check_config, load_config
+from core.config import PAPER_DUAL_OVERRIDES, PROFILES, Config, ConfigError, check_config, load_config
 
 
 def test_paper_profile_holds_section_4_1_1_values():
@@ -27,6 +27,22 @@ def test_paper_profile_holds_section_4_1_1_values():
     # the text is explicit where the released code differs: random positions, −d shaping, learned hand
     env = paper.env
     assert (env.fixed_positions, env.dense_shaping, env.hand) == (None, "distance", "learned")
+
+
+def test_paper_dual_section_is_the_literal_reading_and_the_default_has_every_repair_on():
+    paper, default = load_config("paper").dual, load_config("default").dual
+    literal = {"region_space": "latent", "model_space": "latent", "region_prune_after": 0,
+               "reliability": "lp", "intrinsic_signal": "neg_lp", "intrinsic_region": "source",
+               "model_target": "absolute",
+               "model_termination": False, "model_batch": 1, "model_memory": 0, "new_node_model": "fresh",
+               "refit_every": 0, "plan_optimiser": "sgd", "plan_clip": "executed",
+               "imagination_source": "act_time", "imagination_gate": "none"}
+    for key, value in literal.items():
+        assert getattr(paper, key) == value, key
+        assert getattr(default, key) != value, key
+    assert load_config("default", list(PAPER_DUAL_OVERRIDES)).dual == paper
+    with pytest.raises(ConfigError, match="model_target"):
+        check_config(load_config("default", ["dual.model_output=released", "dual.model_space=latent"]))
 
 
 def test_profiles_are_fresh_objects():

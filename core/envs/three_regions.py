@@ -1,0 +1,76 @@
+"""ThreeRegions: a 2-D point among three regions whose dynamics are learnable, already trivial, or noise.
+
+The controlled problem of the intrinsic-reward check (`core.dual.checks.intrinsic`, issue #19): learning-
+progress motivation should prefer the region whose dynamics can still be learned over the region whose
+dynamics are trivially known and over a "noisy TV" whose outcomes are random — the property that sets it
+apart from prediction-error curiosity, which the noise captures.
+
+Observation ``(x, y, z)`` (float32): the point's position in [−1, 1]² and a screen value z ∈ [−1, 1]. Action
+``(a_x, a_y)`` ∈ [−1, 1]²: the point moves by ``speed · a`` (0.05; clipped to the square) in every region.
+The region is the third of the square the point lands in, by x:
+
+- ``trivial`` (x < −1/3): the screen keeps its value (nothing but the position changes);
+- ``learnable`` (−1/3 ≤ x < 1/3): the screen shows ``sin(f·x + 2a_x) · cos(f·y − 2a_y)`` (f =
+  ``frequency``, 2), a deterministic function of where the point was and how it moved;
+- ``noise`` (x ≥ 1/3): the screen shows a uniform random value (the noisy TV).
+
+The extrinsic reward is always 0; ``info["region"]`` names the region of the new position. Episodes end by
+truncation after ``max_steps`` steps; the start is uniform over the square. Registered as
+``dualsys/ThreeRegions-v0`` (``core/envs/__init__.py``).
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+REGIONS = ("trivial", "learnable", "noise")
+"""Region names, left to right."""
+
+
+def region_of(x: float | np.ndarray) -> np.ndarray:
+    """Index into `REGIONS` of the region at horizontal position ``x``."""
+    return np.digitize(np.asarray(x), [-1.0 / 3.0, 1.0 / 3.0])
+
+
+class ThreeRegionsEnv(gym.Env):
+    """See the module docstring."""
+
+    metadata: ClassVar[dict] = {"render_modes": []}
+
+    def __init__(self, max_steps: int = 200, speed: float = 0.05, frequency: float = 2.0) -> None:
+        self.max_steps = int(max_steps)
+        self.speed = float(speed)
+        self.frequency = float(frequency)
+        self.observation_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        self._position = np.zeros(2)
+        self._screen = 0.0
+        self._steps = 0
+
+    def _observation(self) -> np.ndarray:
+        return np.array([*self._position, self._screen], dtype=np.float32)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        self._position = self.np_random.uniform(-1.0, 1.0, size=2)
+        self._screen = 0.0
+        self._steps = 0
+        return self._observation(), {"region": REGIONS[int(region_of(self._position[0]))]}
+
+    def step(self, action: np.ndarray):
+        move = np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
+        start = self._position
+        self._position = np.clip(start + self.speed * move, -1.0, 1.0)
+        region = int(region_of(self._position[0]))
+        if region == 1:
+            f = self.frequency
+            self._screen = float(np.sin(f * start[0] + 2.0 * move[0]) * np.cos(f * start[1] - 2.0 * move[1]))
+        elif region == 2:
+            self._screen = float(self.np_random.uniform(-1.0, 1.0))
+        self._steps += 1
+        truncated = self._steps >= self.max_steps
+        return self._observation(), 0.0, False, truncated, {"region": REGIONS[region]}

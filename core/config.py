@@ -211,7 +211,9 @@ class DualConfig:
     """Remove an ITM node that has not been the best match for this many states (0: never, paper)."""
     e_max_relative: float | None = None
     """Scale-free e_max (dual/itm_resolution.py): when set to ρ, e_max = ρ · the median pairwise L2 distance
-    among 256 of the last 2048 latents, refreshed every 256 states; None: absolute e_max (paper, released)."""
+    among 256 of the last 2048 latents, refreshed every 256 states; None: absolute e_max (paper, released).
+    Set, it puts the map in raw latent coordinates whatever ``region_space`` says (it is the raw latent's
+    scale-free resolution, the first study's ablation)."""
     itm_distance: Literal["l2", "squared"] = "l2"
     """Distance compared with e_max: l2 (released code) or squared L2 (paper text, Section 2.3.1)."""
     lp_sigma: int = 40
@@ -249,7 +251,9 @@ class DualConfig:
     model_lr: float = 1e-3
     """Adam learning rate of the local models."""
     model_output: Literal["linear", "released"] = "linear"
-    """Local-model output units: linear (Section 4.1.1) or sigmoid latent / tanh reward (released code)."""
+    """Local-model output units: linear (Section 4.1.1) or sigmoid latent / tanh reward (released code). The
+    released form applies to the paper's absolute model in raw latent units only; a delta or normalised model
+    is always linear (dual/world_models.py, ``effective_model_output``)."""
     model_target: Literal["absolute", "delta"] = "delta"
     """What M_n outputs: φ̂′ itself (Eq. 5, paper) or the change, φ̂′ = φ + M_n(φ, a)."""
     model_termination: bool = True
@@ -646,15 +650,6 @@ def check_config(config: Config) -> None:
     for key in positive:
         if value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
-    if config.dual.e_max_relative is not None and config.dual.region_space == "normalised":
-        raise ConfigError("bad value for dual.e_max_relative: it sets e_max in raw latent units; use it with "
-                          "dual.region_space=latent (the normalised map's e_max is already relative)")
-    if config.dual.model_space == "normalised" and config.dual.model_output == "released":
-        raise ConfigError("bad value for dual.model_space: normalised needs dual.model_output=linear "
-                          "(a sigmoid output is in the raw latent's units)")
-    if config.dual.model_target == "delta" and config.dual.model_output == "released":
-        raise ConfigError("bad value for dual.model_target: delta needs dual.model_output=linear "
-                          "(a sigmoid output cannot be a change)")
     if not config.net.conv_channels or min(config.net.conv_channels) < 1:
         raise ConfigError("bad value for net.conv_channels: needs at least one positive channel count")
     if not config.net.mlp_hidden or min(config.net.mlp_hidden) < 1:

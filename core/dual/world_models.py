@@ -74,6 +74,15 @@ def needs_heldout(dual: DualConfig) -> bool:
             or dual.imagination_gate == "no_change_ratio")
 
 
+def effective_model_output(dual: DualConfig) -> str:
+    """The next-latent head's activation: ``dual.model_output`` for the paper's absolute model in raw latent
+    units; linear whenever the model predicts a change (``model_target=delta``) or works in normalised units
+    (``model_space=normalised``), where a sigmoid's (0, 1) range would be wrong."""
+    if dual.model_target == "absolute" and dual.model_space == "latent":
+        return dual.model_output
+    return "linear"
+
+
 class LocalWorldModels:
     """ITM + per-node world models + per-node learning progress (Sections 2.2-2.3)."""
 
@@ -99,14 +108,16 @@ class LocalWorldModels:
             if regions and dual.e_max_relative is not None
             else None
         )
+        # e_max_relative is a scale-free e_max of the raw latent: with it the map stays in raw coordinates
+        normalised_map = dual.region_space == "normalised" and dual.e_max_relative is None
         self.scale = (LatentScale(latent_dim, horizon=REGION_SCALE_HORIZON)
-                      if regions and dual.region_space == "normalised" else None)
+                      if regions and normalised_map else None)
         self.bank = ModelBank(
             latent_dim=latent_dim,
             action_dim=action_dim,
             hidden=dual.model_hidden,
             lr=dual.model_lr,
-            output_activation=dual.model_output,
+            output_activation=effective_model_output(dual),
             init=dual.new_node_model,
             error_norm=dual.error_norm,
             initial_capacity=capacity,

@@ -49,6 +49,7 @@ def _ranges() -> dict[str, dict[str, float]]:
         "agent.rnd_lr",
         "dual.model_lr",
         "dual.e_max",
+        "dual.plan_lr",
     ):
         bounds[key] = {"gt": 0}
     for key in ("agent.gamma", "agent.tau"):

@@ -41,8 +41,13 @@ def test_paper_dual_section_is_the_literal_reading_and_the_default_has_every_rep
         assert getattr(paper, key) == value, key
         assert getattr(default, key) != value, key
     assert load_config("default", list(PAPER_DUAL_OVERRIDES)).dual == paper
-    with pytest.raises(ConfigError, match="model_target"):
-        check_config(load_config("default", ["dual.model_output=released", "dual.model_space=latent"]))
+    # the released sigmoid output applies to the paper's absolute model only; a delta model stays linear
+    from core.dual.world_models import effective_model_output
+
+    released_delta = load_config("default", ["dual.model_output=released", "dual.model_space=latent"])
+    check_config(released_delta)
+    assert effective_model_output(released_delta.dual) == "linear"
+    assert effective_model_output(paper) == paper.model_output
 
 
 def test_profiles_are_fresh_objects():

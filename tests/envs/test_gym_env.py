@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env
 from core.config import EnvConfig
 from core.envs.gym_env import EnvError, episode_success, make_env
 from tests.utils import toy_envs  # noqa: F401  (registers dualsys_test/... ids)
-from tests.utils.toy_envs import ToyImageEnv
+from tests.utils.toy_envs import REFUSED, ToyImageEnv
 
 
 def test_a_vector_task_keeps_its_dtype_and_bounds_and_needs_no_rescaling():
@@ -51,15 +51,7 @@ def test_dict_observations_are_flattened():
     adapted.env.close()
 
 
-@pytest.mark.parametrize(
-    ("env_id", "message"),
-    [
-        ("Nope-v9", "unknown env id 'Nope-v9'"),
-        ("dualsys_test/DiscreteAction-v0", "unsupported action space: Discrete(3)"),
-        ("dualsys_test/UnboundedAction-v0", "unsupported action space: unbounded Box"),
-        ("dualsys_test/MultiBinaryObs-v0", "unsupported observation space: MultiBinary(4)"),
-    ],
-)
+@pytest.mark.parametrize(("env_id", "message"), REFUSED)
 def test_what_cannot_be_trained_is_one_line_naming_the_space(env_id, message):
     with pytest.raises(EnvError, match=re.escape(message)) as caught:
         make_env(EnvConfig(id=env_id))

@@ -15,7 +15,7 @@ from core.config import load_config
 from core.runs.methods import ALGOS
 from core.runs.trainer import train
 from dualsys_cli.main import app
-from tests.utils.toy_envs import RecordingPendulum
+from tests.utils.toy_envs import REFUSED, RecordingPendulum
 
 METHODS = sorted(ALGOS)
 TINY_VECTOR = [
@@ -105,15 +105,7 @@ def _cli(*args: str):
     return CliRunner().invoke(app, list(args))
 
 
-@pytest.mark.parametrize(
-    ("env_id", "message"),
-    [
-        ("Nope-v9", "unknown env id 'Nope-v9'"),
-        ("dualsys_test/DiscreteAction-v0", "unsupported action space: Discrete(3)"),
-        ("dualsys_test/UnboundedAction-v0", "unsupported action space: unbounded Box"),
-        ("dualsys_test/MultiBinaryObs-v0", "unsupported observation space: MultiBinary(4)"),
-    ],
-)
+@pytest.mark.parametrize(("env_id", "message"), REFUSED)
 def test_train_refuses_with_one_line_exit_2_and_no_run_directory(tmp_path, env_id, message):
     out = tmp_path / "run"
     result = _cli("train", "--env", env_id, "--steps", "10", "--out", str(out))

@@ -80,6 +80,14 @@ def multibinary_observation_env() -> gym.Env:
     return _SpaceEnv(spaces.MultiBinary(4), spaces.Box(-1, 1, (1,), np.float32))
 
 
+REFUSED = [
+    ("Nope-v9", "unknown env id 'Nope-v9'"),
+    ("dualsys_test/DiscreteAction-v0", "unsupported action space: Discrete(3)"),
+    ("dualsys_test/UnboundedAction-v0", "unsupported action space: unbounded Box"),
+    ("dualsys_test/MultiBinaryObs-v0", "unsupported observation space: MultiBinary(4)"),
+]
+"""Env ids dualsys cannot train on, and the start of the one-line error that says why."""
+
 REGISTERED = {
     "dualsys_test/ToyImage-v0": (ToyImageEnv, 20),
     "dualsys_test/RecordingPendulum-v0": (RecordingPendulum, 200),

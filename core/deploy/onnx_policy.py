@@ -49,6 +49,8 @@ class OnnxPolicy:
         self.obs_dtype = "uint8" if graph_input.type == "tensor(uint8)" else "float32"
         self.env_id = self.metadata.get("env_id", NICO_GRASP_ID)
         self.env_kwargs: dict = json.loads(self.metadata.get("env_kwargs", "{}"))
+        self.env_success = self.metadata.get("env_success", "info")
+        """The training run's ``env.success`` rule (exports from before it: info)."""
         output_dim = self.session.get_outputs()[0].shape[-1]
         self.action_dim = int(self.metadata.get("action_dim", output_dim))
         self.hand = self.metadata.get("hand", "auto" if self.action_dim == 1 else "learned")

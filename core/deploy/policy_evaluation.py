@@ -33,8 +33,13 @@ def load_deployable(
     path = Path(policy_path)
     if path.suffix == ".onnx":
         runner = OnnxPolicy(path)
-        env = EnvConfig(id=runner.env_id, kwargs=runner.env_kwargs, hand=runner.hand, level=runner.level)
-        env.success = runner.metadata.get("env_success", "info")  # type: ignore[assignment]
+        env = EnvConfig(
+            id=runner.env_id,
+            kwargs=runner.env_kwargs,
+            success=runner.env_success,  # type: ignore[arg-type]
+            hand=runner.hand,  # type: ignore[arg-type]
+            level=runner.level,  # type: ignore[arg-type]
+        )
         return runner.act, env
     policy = load_policy(path)
     if not onnx:

@@ -229,7 +229,8 @@ class DualSystemAgent(ModelFreeAgent):
             batch = type(batch)(*(t.to(self.device) for t in batch))
             latent = None if latent is None else type(latent)(*(t.to(self.device) for t in latent))
         self.updates += 1
-        return imagination_update(self.learner, batch, latent)
+        return imagination_update(self.learner, batch, latent,
+                                  actor_on_imagined=self.config.dual.imagination_actor == "all")
 
     def _imagine_from(self, obs: torch.Tensor) -> LatentBatch | None:
         """Learn-time imagination (``dual.imagination_source``): rollouts from the minibatch's states, encoded

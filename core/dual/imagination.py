@@ -49,9 +49,13 @@ from core.modelfree.replay import LatentBatch, PixelBatch
 
 
 def imagination_update(
-    learner: ActorCritic, pixel: PixelBatch, latent: LatentBatch | None
+    learner: ActorCritic, pixel: PixelBatch, latent: LatentBatch | None, actor_on_imagined: bool = True
 ) -> dict[str, float]:
-    """Algorithm 3 lines 34-37 on one pixel and one latent minibatch (``latent`` None: pixel only)."""
+    """Algorithm 3 lines 34-37 on one pixel and one latent minibatch (``latent`` None: pixel only).
+
+    ``actor_on_imagined`` False (``dual.imagination_actor = real``): line 36 steps the actor on the pixel
+    minibatch's latents only, so imagined transitions shape the critic but never the policy directly.
+    """
     cfg = learner.agent_config
     obs = learner.encoder.prepare(pixel.obs)
     with torch.no_grad():
@@ -77,8 +81,10 @@ def imagination_update(
         learner.critic_optimizer.step()
     with torch.no_grad():
         phi = learner.encoder(obs)
-    phi_all = phi if latent is None else torch.cat([phi, latent.latent])
-    actor = learner.actor_update(learner, phi_all, action_all, y_all)
+    if latent is None or not actor_on_imagined:
+        actor = learner.actor_update(learner, phi, pixel.action, y_pixel)
+    else:
+        actor = learner.actor_update(learner, torch.cat([phi, latent.latent]), action_all, y_all)
     learner.update_targets()
     out = {
         "losses/critic": float(q_critic.detach()),

@@ -291,6 +291,9 @@ class DualConfig:
     the pixel minibatch's states, encoded by the current encoder, made at each update and never stored."""
     imagination_gate: Literal["none", "no_change_ratio"] = "no_change_ratio"
     """Keep an imagined transition with probability 1 − (node's held-out error / no-change error), or all."""
+    imagination_reward: Literal["model", "with_intrinsic"] = "model"
+    """Reward of an imagined transition: the model's r̂ (paper: the bank learns r_ext only) or r̂ + r_int of
+    the transition, as a real transition carries r + r_int in the replay (learn-time imagination only)."""
     imagination_actor: Literal["all", "real"] = "all"
     """Latents the actor's step sees (Alg. 3 line 36): real and imagined (paper), or the real ones only —
     imagination then feeds the critic alone (docs/dual-system.md, "Imagination in the loop")."""

@@ -239,7 +239,8 @@ class DualSystemAgent(ModelFreeAgent):
         with torch.no_grad():
             phi = self.learner.encode(obs.to(self.device)).cpu()
         stop = "reliable" if self.imagination == "adaptive" else "la"
-        model = RegionModels(self.world, self.rng, stop=stop, la_scale=dual.imagination_prob_scale)
+        model = RegionModels(self.world, self.rng, stop=stop, la_scale=dual.imagination_prob_scale,
+                             intrinsic=self.intrinsic and dual.imagination_reward == "with_intrinsic")
         latent = imagine(phi, model, self._actor, dual.d_max, self.rng, dual.latent_batch_size)
         made = 0 if latent is None else latent.latent.shape[0]
         self.counters.imagined += made

@@ -154,8 +154,10 @@ class RegionModels:
         rng: np.random.Generator,
         stop: Literal["reliable", "la"] = "reliable",
         la_scale: float = 1.0,
+        intrinsic: bool = False,
     ) -> None:
         self.world, self.rng, self.stop, self.la_scale = world, rng, stop, la_scale
+        self.intrinsic = intrinsic
 
     def locate(self, phi: torch.Tensor) -> np.ndarray:
         return self.world.nearest_many(phi)
@@ -171,7 +173,14 @@ class RegionModels:
         return self.rng.random(regions.shape[0]) < p
 
     def predict(self, regions: np.ndarray, phi: torch.Tensor, action: torch.Tensor) -> ModelPrediction:
-        return self.world.bank.predict(torch.from_numpy(regions), phi, action)
+        """The region models' prediction; with ``intrinsic`` the reward is r̂ + r_int of the imagined transition
+        (``dual.imagination_reward = with_intrinsic``), the reward real transitions carry in the replay."""
+        prediction = self.world.bank.predict(torch.from_numpy(regions), phi, action)
+        if not self.intrinsic:
+            return prediction
+        bonus = self.world.intrinsic_rewards(regions, prediction.next_latent)
+        reward = prediction.reward + torch.as_tensor(bonus, dtype=prediction.reward.dtype)
+        return ModelPrediction(next_latent=prediction.next_latent, reward=reward, done=prediction.done)
 
     def share(self, regions: np.ndarray) -> np.ndarray:
         return self.world.imagination_share(regions)

@@ -287,6 +287,16 @@ class LocalWorldModels:
         rows = torch.randperm(count, generator=self.bank.generator)[: self.sample_size]
         return tuple(column[rows] for column in stored)
 
+    def intrinsic_rewards(self, nodes: np.ndarray, next_phi: torch.Tensor) -> np.ndarray:
+        """`intrinsic_reward` of many transitions at once: from regions ``nodes [k]`` to ``next_phi [k, latent]``."""
+        cfg = self.config
+        regions = nodes if cfg.intrinsic_region == "source" else self.nearest_many(next_phi)
+        if cfg.intrinsic_signal == "neg_lp":
+            return self.lp.intrinsic_reward(regions)
+        assert self.heldout is not None
+        unit = self.unit.scale if cfg.error_norm == "l2" else self.unit.scale**2
+        return cfg.intrinsic_scale * self.heldout.progress_of(regions) / unit
+
     def intrinsic_reward(self, node: int, next_phi: torch.Tensor) -> float:
         """r_int of a transition from region ``node`` to latent ``next_phi`` (Alg. 2 line 22, or the repair).
 

@@ -173,8 +173,8 @@ class RegionModels:
         return self.rng.random(regions.shape[0]) < p
 
     def predict(self, regions: np.ndarray, phi: torch.Tensor, action: torch.Tensor) -> ModelPrediction:
-        """The region models' prediction; with ``intrinsic`` the reward is r̂ + r_int of the imagined transition
-        (``dual.imagination_reward = with_intrinsic``), the reward real transitions carry in the replay."""
+        """The region models' prediction; with ``intrinsic`` the reward is r̂ + r_int of the imagined
+        transition (``dual.imagination_reward = with_intrinsic``), as real transitions carry in the replay."""
         prediction = self.world.bank.predict(torch.from_numpy(regions), phi, action)
         if not self.intrinsic:
             return prediction

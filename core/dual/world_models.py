@@ -288,7 +288,7 @@ class LocalWorldModels:
         return tuple(column[rows] for column in stored)
 
     def intrinsic_rewards(self, nodes: np.ndarray, next_phi: torch.Tensor) -> np.ndarray:
-        """`intrinsic_reward` of many transitions at once: from regions ``nodes [k]`` to ``next_phi [k, latent]``."""
+        """`intrinsic_reward` of many transitions: from regions ``nodes [k]`` to ``next_phi [k, latent]``."""
         cfg = self.config
         regions = nodes if cfg.intrinsic_region == "source" else self.nearest_many(next_phi)
         if cfg.intrinsic_signal == "neg_lp":

@@ -439,7 +439,7 @@ def test_imagined_reward_carries_the_intrinsic_reward_of_the_transition_when_ask
         _step(agent, _obs(step % 3))
         agent.update_after_step()
     world = agent.world
-    world.heldout.progress[:] = 0.5  # every region improving: r_int = c · 0.5 / s (intrinsic_signal = progress)
+    world.heldout.progress[:] = 0.5  # every region improving: r_int = c · 0.5 / s
     with torch.no_grad():
         phi = agent.learner.encode(torch.from_numpy(np.stack([_obs(0), _obs(1)])))
     regions = world.nearest_many(phi)

@@ -291,6 +291,9 @@ class DualConfig:
     the pixel minibatch's states, encoded by the current encoder, made at each update and never stored."""
     imagination_gate: Literal["none", "no_change_ratio"] = "no_change_ratio"
     """Keep an imagined transition with probability 1 − (node's held-out error / no-change error), or all."""
+    imagination_max_ratio: float = 1.0
+    """The gate keeps a transition with probability clip(1 − ratio / this, 0, 1): none from a node whose
+    held-out error is at or above this fraction of the no-change error (1: the gate as first built)."""
     imagination_reward: Literal["model", "with_intrinsic"] = "model"
     """Reward of an imagined transition: the model's r̂ (paper: the bank learns r_ext only) or r̂ + r_int of
     the transition, as a real transition carries r + r_int in the replay (learn-time imagination only)."""
@@ -624,6 +627,19 @@ _NON_NEGATIVE = (
 )
 
 
+_POSITIVE_OR_NONE: tuple[str, ...] = (
+    "run.episodes", "run.steps", "run.max_wall_s", "run.checkpoint_every_s", "env.fixed_positions",
+    "dual.e_max_relative",
+)
+"""Keys that are > 0 or None (`check_config`; the service's overrides schema reads the same tuple)."""
+
+_POSITIVE: tuple[str, ...] = (
+    "agent.critic_lr", "agent.actor_lr", "agent.rnd_lr", "dual.model_lr", "dual.e_max", "dual.plan_lr",
+    "dual.imagination_max_ratio",
+)
+"""Real-valued keys that must be > 0."""
+
+
 def check_config(config: Config) -> None:
     """Range checks a type cannot express; raises ConfigError naming the key."""
 
@@ -637,23 +653,14 @@ def check_config(config: Config) -> None:
     for key in _NON_NEGATIVE:
         if value(key) < 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be >= 0)")
-    for key in (
-        "run.episodes",
-        "run.steps",
-        "run.max_wall_s",
-        "run.checkpoint_every_s",
-        "env.fixed_positions",
-        "dual.e_max_relative",
-    ):
+    for key in _POSITIVE_OR_NONE:
         if value(key) is not None and value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0 or none)")
     if not 0.0 <= config.agent.gamma <= 1.0:
         raise ConfigError(f"bad value for agent.gamma: {config.agent.gamma!r} (must be in [0, 1])")
     if not 0.0 <= config.agent.tau <= 1.0:
         raise ConfigError(f"bad value for agent.tau: {config.agent.tau!r} (must be in [0, 1])")
-    positive = ("agent.critic_lr", "agent.actor_lr", "agent.rnd_lr", "dual.model_lr", "dual.e_max",
-                "dual.plan_lr")
-    for key in positive:
+    for key in _POSITIVE:
         if value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
     if not config.net.conv_channels or min(config.net.conv_channels) < 1:

@@ -54,9 +54,11 @@ SNAPSHOTS = 4
 """Parameter snapshots kept per node (one every L updates): comparisons reach L..2L and up to 4L back."""
 
 
-def share_from_ratio(ratio: np.ndarray | float) -> np.ndarray:
-    """clip(1 − ratio, 0, 1): how much better than "nothing changes" a model is (``imagination_gate``)."""
-    return np.clip(1.0 - np.asarray(ratio, dtype=np.float64), 0.0, 1.0)
+def share_from_ratio(ratio: np.ndarray | float, max_ratio: float = 1.0) -> np.ndarray:
+    """clip(1 − ratio / max_ratio, 0, 1): how much better than "nothing changes" a model is
+    (``imagination_gate``); no transition is kept from a model at or above ``max_ratio`` of the no-change
+    error (``dual.imagination_max_ratio``)."""
+    return np.clip(1.0 - np.asarray(ratio, dtype=np.float64) / max_ratio, 0.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -320,11 +322,11 @@ class HeldOutReliability:
         self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
         return self.progress[ids].copy()
 
-    def share(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
+    def share(self, nodes: np.ndarray | list[int] | int, max_ratio: float = 1.0) -> np.ndarray:
         """`share_from_ratio` of each node's held-out ratio (0 while undefined)."""
         ids = np.asarray(nodes, dtype=np.int64).reshape(-1)
         self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
-        return share_from_ratio(np.nan_to_num(self.ratio[ids], nan=1.0))
+        return share_from_ratio(np.nan_to_num(self.ratio[ids], nan=1.0), max_ratio)
 
     # ------------------------------------------------------------------ checkpoints
     def state_dict(self) -> dict[str, torch.Tensor]:

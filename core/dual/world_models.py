@@ -362,7 +362,7 @@ class LocalWorldModels:
         """Probability of keeping an imagined transition each node predicted (``dual.imagination_gate``)."""
         if self.config.imagination_gate == "none" or self.heldout is None:
             return np.ones(np.asarray(nodes).shape[0])
-        return self.heldout.share(nodes)
+        return self.heldout.share(nodes, self.config.imagination_max_ratio)
 
     def learning_progress(self, node: int) -> float:
         return float(self.lp.learning_progress(node)[0])

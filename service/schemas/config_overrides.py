@@ -37,20 +37,7 @@ def _ranges() -> dict[str, dict[str, float]]:
         bounds[key] = {"ge": 1}
     for key in getattr(config_module, "_NON_NEGATIVE", ()):
         bounds[key] = {"ge": 0}
-    for key in (
-        "run.episodes",
-        "run.steps",
-        "run.max_wall_s",
-        "run.checkpoint_every_s",
-        "env.fixed_positions",
-        "dual.e_max_relative",
-        "agent.critic_lr",
-        "agent.actor_lr",
-        "agent.rnd_lr",
-        "dual.model_lr",
-        "dual.e_max",
-        "dual.plan_lr",
-    ):
+    for key in (*config_module._POSITIVE_OR_NONE, *config_module._POSITIVE):
         bounds[key] = {"gt": 0}
     for key in ("agent.gamma", "agent.tau"):
         bounds[key] = {"ge": 0, "le": 1}

@@ -42,6 +42,8 @@ def test_progress_is_the_paired_mean_decrease_and_the_recent_window_sets_the_rat
     shifted = judge(0.2 * ones, 0.2 * ones, ones, np.ones((1, 48), dtype=bool), 3.0, 0.5, 24, recent=recent)
     assert shifted.ratio[0] == pytest.approx(0.9) and not shifted.trusted[0]
     np.testing.assert_allclose(share_from_ratio(np.array([0.0, 0.25, 1.0, 3.0])), [1.0, 0.75, 0.0, 0.0])
+    # dual.imagination_max_ratio = 0.5: nothing from a model at or above half the no-change error.
+    np.testing.assert_allclose(share_from_ratio(np.array([0.0, 0.25, 0.5, 0.9]), 0.5), [1.0, 0.5, 0.0, 0.0])
 
 
 def _world(*overrides: str) -> LocalWorldModels:

@@ -123,7 +123,8 @@ def critic_error(dual: DualConfig, model: str, seed: int, updates: int = 1000, r
         true = model == "true"
         share = 1.0
         if dual.imagination_gate == "no_change_ratio":
-            share = float(share_from_ratio(_ratio(true, held_phi, held_action, dual.error_norm)))
+            share = float(share_from_ratio(_ratio(true, held_phi, held_action, dual.error_norm),
+                                           dual.imagination_max_ratio))
         imagination = _Model(true, share, termination=dual.model_termination)
     critic = nn.Sequential(nn.Linear(4, 32), nn.ReLU(), nn.Linear(32, 32), nn.ReLU(), nn.Linear(32, 1))
     target = nn.Sequential(nn.Linear(4, 32), nn.ReLU(), nn.Linear(32, 32), nn.ReLU(), nn.Linear(32, 1))

@@ -58,7 +58,9 @@ def _submit(supervisor: Supervisor, kind: str, spec: dict) -> int:
     return job.id
 
 
-def _finished(supervisor: Supervisor, job_id: int, timeout: float = 120):  # type: ignore[no-untyped-def]
+def _finished(supervisor: Supervisor, job_id: int, timeout: float = 600):  # type: ignore[no-untyped-def]
+    """The job's final record; the deadline only bounds a hang (a loaded 2-core machine starts Ray slowly:
+    a tiny job took over 120 s there while two training runs shared the cores)."""
     def done():  # type: ignore[no-untyped-def]
         job = job_store.get_job(supervisor.database, job_id=job_id)
         return job if job.status in ("succeeded", "failed", "cancelled") else None

@@ -299,7 +299,8 @@ def write_report(directory: Path | str, *, reps: int | None = None) -> dict[str,
     }
     plot_learning_curves(spec, learning_curves(spec, records), files["learning_curves"])
     plot_learning_curves(spec, learning_curves(spec, records, series="successes"), files["success_curves"],
-                         ylabel="share of training episodes that grasp (smoothed)")
+                         ylabel="share of training episodes that " + ("grasp" if spec.nico_grasp else "succeed")
+                         + " (smoothed)")
     plot_scores(report, [m.label for m in spec.methods], files["scores"])
     atomic_write_text(files["report"], render_markdown(spec, report))
     atomic_write_text(root / "report.json", json.dumps(report, indent=2) + "\n")

@@ -298,9 +298,9 @@ def write_report(directory: Path | str, *, reps: int | None = None) -> dict[str,
         "scores": root / "scores.png",
     }
     plot_learning_curves(spec, learning_curves(spec, records), files["learning_curves"])
+    verb = "grasp" if spec.nico_grasp else "succeed"
     plot_learning_curves(spec, learning_curves(spec, records, series="successes"), files["success_curves"],
-                         ylabel="share of training episodes that " + ("grasp" if spec.nico_grasp else "succeed")
-                         + " (smoothed)")
+                         ylabel=f"share of training episodes that {verb} (smoothed)")
     plot_scores(report, [m.label for m in spec.methods], files["scores"])
     atomic_write_text(files["report"], render_markdown(spec, report))
     atomic_write_text(root / "report.json", json.dumps(report, indent=2) + "\n")

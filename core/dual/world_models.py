@@ -305,13 +305,7 @@ class LocalWorldModels:
         normalisation); progress → +c·(held-out progress) / s, s the latent's RMS spread (`unit`; squared
         with squared Eq. 8 errors).
         """
-        cfg = self.config
-        region = node if cfg.intrinsic_region == "source" else self.nearest(next_phi)
-        if cfg.intrinsic_signal == "neg_lp":
-            return float(self.lp.intrinsic_reward(region)[0])
-        assert self.heldout is not None
-        unit = self.unit.scale if cfg.error_norm == "l2" else self.unit.scale**2
-        return float(cfg.intrinsic_scale * self.heldout.progress_of(region)[0] / unit)
+        return float(self.intrinsic_rewards(np.array([node], dtype=np.int64), next_phi.reshape(1, -1))[0])
 
     def learn_batch(
         self, phi: torch.Tensor, action: torch.Tensor, reward_ext: torch.Tensor, next_phi: torch.Tensor

@@ -177,3 +177,12 @@ def test_bench_experiment_contract(tmp_path, write_experiment):
     figures = json.loads(result.stdout.strip().splitlines()[-1])
     assert figures["cells"] == 2 and figures["workers_1_s"] > 0 and figures["workers_2_s"] > 0
     assert figures["speedup"] == pytest.approx(figures["workers_1_s"] / figures["workers_2_s"], abs=0.01)
+
+
+@pytest.mark.parametrize("path", sorted(SHIPPED.glob("*.yaml")), ids=lambda path: path.stem)
+def test_every_shipped_experiment_file_loads_under_its_own_name(path):
+    """`dualsys experiment run NAME` finds experiments/NAME.yaml and writes dualsys-experiments/NAME/: the two
+    names must agree, or a report would be looked for in the wrong folder."""
+    spec = load_experiment(path)
+    assert spec.name == path.stem
+    assert spec.methods and spec.seeds and spec.steps > 0

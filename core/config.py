@@ -94,6 +94,10 @@ class EnvConfig:
     """What counts as a successful episode: info: the env's ``info["success"]`` (or ``is_success``) at the
     episode's end (NicoGrasp's grasp); terminated: the episode terminated before truncation (the goal of
     MountainCar, whose only termination is reaching it)."""
+    reward_offset: float = 0.0
+    """A constant added to every step's reward of a task other than NicoGrasp, in training and evaluation
+    alike (0: the task's own reward). A control, not a tuning knob: it asks what a cost per step alone does
+    (docs/results.md, grid 5: DDPG with −0.015 per step on MountainCar)."""
     level: Literal["released", "paper", "hard"] = "released"
     """Task level (core/task_levels.py; calibrated in docs/environment.md): released, paper or hard."""
     reward_mode: Literal["dense", "sparse"] = "dense"

@@ -26,7 +26,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from gymnasium.wrappers import FlattenObservation, RescaleAction, ReshapeObservation, TransformObservation
+from gymnasium.wrappers import (
+    FlattenObservation,
+    RescaleAction,
+    ReshapeObservation,
+    TransformObservation,
+    TransformReward,
+)
 
 from core.config import NICO_GRASP_ID, EnvConfig
 from core.envs.spec import EnvSpec
@@ -68,10 +74,11 @@ def make_env(config: EnvConfig, *, evaluation: bool = False, rescale_actions: bo
     ``rescale_actions=False`` leaves the env's own action units (for a deployed policy, which has the
     bounds in its last layer)."""
     if config.id == NICO_GRASP_ID:
-        if config.kwargs:
+        if config.kwargs or config.reward_offset:
             raise EnvError(
-                "env.kwargs is for tasks other than NicoGrasp; NicoGrasp takes env.level, env.reward_mode, "
-                "env.hand, env.dense_shaping, env.fixed_positions, env.max_steps, env.domain"
+                "env.kwargs and env.reward_offset are for tasks other than NicoGrasp; NicoGrasp takes "
+                "env.level, env.reward_mode, env.hand, env.dense_shaping, env.fixed_positions, "
+                "env.max_steps, env.domain"
             )
         from core.envs.nico_grasp import NicoGraspEnv
 
@@ -79,7 +86,11 @@ def make_env(config: EnvConfig, *, evaluation: bool = False, rescale_actions: bo
         if evaluation:
             kwargs["fixed_positions"] = None
         return adapt(NicoGraspEnv(**kwargs), rescale_actions=rescale_actions)
-    return adapt(make_gym_env(config.id, config.kwargs), rescale_actions=rescale_actions)
+    env = make_gym_env(config.id, config.kwargs)
+    if config.reward_offset:
+        offset = float(config.reward_offset)
+        env = TransformReward(env, lambda reward: reward + offset)
+    return adapt(env, rescale_actions=rescale_actions)
 
 
 def make_gym_env(env_id: str, kwargs: dict[str, Any] | None = None) -> gym.Env:

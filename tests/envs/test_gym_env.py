@@ -58,9 +58,26 @@ def test_what_cannot_be_trained_is_one_line_naming_the_space(env_id, message):
     assert "\n" not in str(caught.value)
 
 
-def test_nico_grasp_rejects_gym_kwargs():
-    with pytest.raises(EnvError, match=r"env\.kwargs is for tasks other than NicoGrasp"):
+def test_nico_grasp_rejects_gym_kwargs_and_a_reward_offset():
+    with pytest.raises(EnvError, match=r"env\.kwargs and env\.reward_offset are for tasks other than"):
         make_env(EnvConfig(kwargs={"max_episode_steps": 3}))
+    with pytest.raises(EnvError, match=r"env\.reward_offset are for tasks other than NicoGrasp"):
+        make_env(EnvConfig(reward_offset=-0.1))
+
+
+def test_a_reward_offset_adds_a_constant_to_every_step_and_keeps_the_episode():
+    plain = make_env(EnvConfig(id="MountainCarContinuous-v0")).env
+    offset = make_env(EnvConfig(id="MountainCarContinuous-v0", reward_offset=-0.015)).env
+    plain.reset(seed=3)
+    offset.reset(seed=3)
+    for action in (-1.0, 0.3, 1.0):
+        *step_plain, _ = plain.step(np.array([action], dtype=np.float32))
+        *step_offset, _ = offset.step(np.array([action], dtype=np.float32))
+        np.testing.assert_array_equal(step_plain[0], step_offset[0])
+        assert step_offset[1] == pytest.approx(step_plain[1] - 0.015, abs=1e-12)
+        assert step_offset[2:] == step_plain[2:]
+    plain.close()
+    offset.close()
 
 
 def test_success_rules():

@@ -89,7 +89,7 @@ def generate_pairs(
         for side, images in (("sim", states.sim), ("real", states.real)):
             (staging / side).mkdir()
             for name, image in zip(names, images, strict=True):
-                Image.fromarray(image, mode="RGB").save(staging / side / f"{name}.png")
+                Image.fromarray(image).save(staging / side / f"{name}.png")  # uint8 H×W×3 is RGB
         manifest = {
             "format": PAIRS_FORMAT,
             "count": n,

@@ -139,15 +139,24 @@ class NetConfig:
     """Actor hidden activation: relu (paper text: ReLU everywhere but outputs) or tanh (released code)."""
     mlp_hidden: tuple[int, ...] = (64, 64)
     """Hidden layers of the encoder f_ω (and, mirrored, the decoder) for vector observations: an MLP with
-    ReLU to the latent φ, in place of the convolutions (which images get)."""
+    ReLU to the latent φ, in place of the convolutions (which images get). With ``encoder = none``, the hidden
+    layers of the actor and of each critic instead (SB3: 256, 256 for SAC and TD3, 400, 300 for DDPG)."""
+    encoder: Literal["learned", "none"] = "learned"
+    """learned: the critic-autoencoder f_ω of Fig. 1 (Eq. 4) before the paper's one-layer heads; none (vector
+    observations only): actor and critic are MLPs (``mlp_hidden``) on the scaled observation itself, the
+    textbook networks of SB3 and CleanRL (docs/model-free.md, "Learners")."""
+    latent_activation: Literal["auto", "relu", "layernorm_tanh"] = "auto"
+    """The encoder's last activation: relu (Fig. 1) or LayerNorm + tanh (SAC-AE's bounded latent); auto: relu
+    for ddpg/cacla, layernorm_tanh for td3/sac."""
 
 
 @dataclass
 class AgentConfig:
     """The model-free learner: critic-autoencoder (Eq. 4, Eq. 1) and actor update (Eq. 2 or Eq. 3)."""
 
-    ac: Literal["ddpg", "cacla"] = "ddpg"
-    """Actor update rule: DDPG (Eq. 2) or off-policy CACLA (Eq. 3). Set from --algo for ddpg/cacla."""
+    ac: Literal["ddpg", "cacla", "td3", "sac"] = "ddpg"
+    """The learner (core/modelfree/learners): DDPG (Eq. 2), off-policy CACLA (Eq. 3), TD3 (Fujimoto et al.
+    2018) or SAC (Haarnoja et al. 2018, learned temperature). Set from --algo for the model-free methods."""
     gamma: float = 0.99
     """Discount factor γ of Eq. 1."""
     tau: float = 0.005
@@ -184,6 +193,25 @@ class AgentConfig:
     """Std after annealing (equal to noise_std: no annealing)."""
     noise_anneal_steps: int = 30_000
     """Environment steps over which the std decays linearly to noise_final_std."""
+    noise: Literal["gaussian", "ou"] = "gaussian"
+    """DDPG/TD3/CACLA exploration noise: i.i.d. Gaussian, or Ornstein-Uhlenbeck (θ = ``noise_theta``, dt =
+    0.01, σ = the annealed std; reset every episode; SB3's OrnsteinUhlenbeckActionNoise). SAC samples π."""
+    noise_theta: float = 0.15
+    """θ of the Ornstein-Uhlenbeck noise (SB3's default)."""
+    warmup: Literal["policy", "uniform"] = "policy"
+    """Actions before ``learning_starts``: the policy with its exploration (paper) or uniform random (SB3)."""
+    policy_delay: int = 2
+    """TD3: actor and target updates every this many critic updates."""
+    target_noise: float = 0.2
+    """TD3: std of the target-policy smoothing noise, in the normalised action units [-1, 1]."""
+    target_noise_clip: float = 0.5
+    """TD3: the smoothing noise is clipped to ±this."""
+    alpha_init: float = 1.0
+    """SAC: initial temperature α (SB3's ``ent_coef='auto'`` starts at 1)."""
+    target_entropy: float | None = None
+    """SAC: the entropy α drives the policy toward; None: −dim(A)."""
+    encoder_tau: float | None = None
+    """τ of the target encoder (SAC-AE: 0.05 against the critic's 0.01); None: ``tau``."""
     rnd_scale: float = 0.5
     """``--algo rnd`` only: weight of the normalised RND bonus against the extrinsic reward (Burda et al.
     2018 weigh extrinsic 2 : intrinsic 1; here extrinsic 1 : intrinsic 0.5)."""
@@ -598,6 +626,7 @@ _POSITIVE_INTS = (
     "agent.cacla_actor_passes",
     "agent.noise_anneal_steps",
     "agent.rnd_dim",
+    "agent.policy_delay",
     "dual.lp_sigma",
     "dual.lp_window",
     "dual.model_hidden",
@@ -621,6 +650,8 @@ _NON_NEGATIVE = (
     "agent.noise_std",
     "agent.rnd_scale",
     "agent.noise_final_std",
+    "agent.target_noise",
+    "agent.target_noise_clip",
     "dual.plan_steps",
     "dual.fixed_horizon",
     "dual.cmc_horizon",
@@ -634,12 +665,12 @@ _NON_NEGATIVE = (
 
 _POSITIVE_OR_NONE: tuple[str, ...] = (
     "run.episodes", "run.steps", "run.max_wall_s", "run.checkpoint_every_s", "env.fixed_positions",
-    "dual.e_max_relative",
+    "dual.e_max_relative", "agent.encoder_tau",
 )
 """Keys that are > 0 or None (`check_config`; the service's overrides schema reads the same tuple)."""
 
 _POSITIVE: tuple[str, ...] = (
-    "agent.critic_lr", "agent.actor_lr", "agent.rnd_lr", "dual.model_lr", "dual.e_max", "dual.plan_lr",
+    "agent.critic_lr", "agent.actor_lr", "agent.rnd_lr", "agent.alpha_init", "agent.noise_theta", "dual.model_lr", "dual.e_max", "dual.plan_lr",
     "dual.imagination_max_ratio",
 )
 """Real-valued keys that must be > 0."""

@@ -1,18 +1,7 @@
-"""Learning from imagined latent transitions: the I2A update (Alg. 3 lines 34-37) and LA-Imagination rollouts.
+"""Where imagined latent transitions come from: LA-Imagination's rollouts and learn-time imagination.
 
-`imagination_update` is one minibatch update of Algorithm 3 on a pixel minibatch from B_pixel and a
-latent minibatch from B_latent:
-
-- line 34: θ^Q fixed, encoder ω and decoder ω̃ take a step on L_combined (Eq. 4) of the pixel minibatch
-  (the value term's gradient flows through a detached copy of the critic into the encoder);
-- line 35: the critic θ^Q takes a step on L_Q (Eq. 1) over the pixel minibatch's latents φ = f(s)
-  (detached) together with the latent minibatch's φ, the two concatenated into one batch;
-- line 36: the actor strategy (DDPG Eq. 2 or CACLA Eq. 3) on the same concatenated latents;
-- line 37: τ target updates.
-
-Lines 34 and 35 touch disjoint parameters, so they are one backward pass and one step of the
-critic-autoencoder's Adam (Adam is per parameter: identical to two separate steps). With
-``critic_passes`` > 1 (released-code schedule) both lines repeat that many times.
+The learner learns from them in :meth:`core.modelfree.learners.base.Learner.update_with_imagination`
+(Algorithm 3, lines 34-37); the I2A agent (``core.dual.i2a``) decides which of these feeds it.
 
 `la_imagination_rollout` is the imagination of DDPG+LA-Imagination (Section 3; [42]): from φ_t an
 on-policy rollout starts with probability p_n = min(1, c / ⟨e_n⟩), inversely proportional to the
@@ -39,63 +28,11 @@ from typing import Literal, Protocol
 
 import numpy as np
 import torch
-from torch.func import functional_call
 
 from core.dual.model_bank import ModelPrediction
 from core.dual.planning import ActorFn, Rollout, model_rollout
 from core.dual.world_models import LocalWorldModels
-from core.modelfree.actor_critic import ActorCritic
-from core.modelfree.replay import LatentBatch, PixelBatch
-
-
-def imagination_update(
-    learner: ActorCritic, pixel: PixelBatch, latent: LatentBatch | None, actor_on_imagined: bool = True
-) -> dict[str, float]:
-    """Algorithm 3 lines 34-37 on one pixel and one latent minibatch (``latent`` None: pixel only).
-
-    ``actor_on_imagined`` False (``dual.imagination_actor = real``): line 36 steps the actor on the pixel
-    minibatch's latents only, so imagined transitions shape the critic but never the policy directly.
-    """
-    cfg = learner.agent_config
-    obs = learner.encoder.prepare(pixel.obs)
-    with torch.no_grad():
-        next_phi = learner.target_encoder(learner.encoder.prepare(pixel.next_obs))
-        y_pixel = learner.td_target(pixel.reward, next_phi, pixel.terminated)
-        if latent is not None:
-            y_latent = learner.td_target(latent.reward, latent.next_latent, latent.done)
-            y_all = torch.cat([y_pixel, y_latent])
-            action_all = torch.cat([pixel.action, latent.action])
-        else:
-            y_all, action_all = y_pixel, pixel.action
-    rec_loss = q_encoder = q_critic = torch.zeros(())
-    for _ in range(cfg.critic_passes):
-        phi = learner.encoder(obs)
-        rec_loss = (learner.decoder(phi) - obs).pow(2).mean()
-        frozen = {name: p.detach() for name, p in learner.critic.named_parameters()}
-        q_encoder = (y_pixel - functional_call(learner.critic, frozen, (phi, pixel.action))).pow(2).mean()
-        phi_all = phi.detach() if latent is None else torch.cat([phi.detach(), latent.latent])
-        q_critic = (y_all - learner.critic(phi_all, action_all)).pow(2).mean()
-        loss = cfg.lambda_rec * rec_loss + cfg.lambda_q * q_encoder + cfg.lambda_q * q_critic
-        learner.critic_optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        learner.critic_optimizer.step()
-    with torch.no_grad():
-        phi = learner.encoder(obs)
-    if latent is None or not actor_on_imagined:
-        actor = learner.actor_update(learner, phi, pixel.action, y_pixel)
-    else:
-        actor = learner.actor_update(learner, torch.cat([phi, latent.latent]), action_all, y_all)
-    learner.update_targets()
-    out = {
-        "losses/critic": float(q_critic.detach()),
-        "losses/critic_encoder": float(q_encoder.detach()),
-        "losses/rec": float(rec_loss.detach()),
-        "losses/actor": actor.loss,
-        "losses/td_target_mean": float(y_pixel.mean()),
-    }
-    if not math.isnan(actor.positive_fraction):
-        out["losses/cacla_positive_fraction"] = actor.positive_fraction
-    return out
+from core.modelfree.replay import LatentBatch
 
 
 def imagination_probability(world: LocalWorldModels, node: int, scale: float) -> float:

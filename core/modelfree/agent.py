@@ -1,4 +1,4 @@
-"""The agent interface the trainer drives, and the model-free agent (DDPG / off-policy CACLA).
+"""The agent interface the trainer drives, and the model-free agent (a learner: DDPG, CACLA, TD3 or SAC).
 
 Hooks (all methods share one loop, ``core.runs.trainer.train``; a method plugs in by implementing these):
 
@@ -7,8 +7,8 @@ Hooks (all methods share one loop, ``core.runs.trainer.train``; a method plugs i
   noise, meta-control, anything with side effects); ``explore=False`` is the greedy deployment policy
   μ(f(s)) used by evaluation and must not change learning state. ``step_diagnostics`` is a dict of floats;
   the trainer averages each key over the episode's steps into the episode record (e.g. ``dual/horizon``).
-* ``observe(transition)`` — the real transition after ``env.step``; the agent stores it (and may shape the
-  stored reward, e.g. r = r_ext + r_int, via :meth:`ModelFreeAgent.stored_reward`).
+* ``observe(transition)`` — the real transition after ``env.step``; the agent stores it (a dual-system agent
+  stores r = r_ext + r_int).
 * ``update_after_step()`` / ``update_after_episode()`` — learning; each returns a dict of float losses,
   averaged per key over the episode by the trainer (``losses/critic``, ``losses/rec``, ``losses/actor``...).
 * ``episode_diagnostics()`` — called once at the end of each training episode; a dict of floats merged
@@ -25,16 +25,20 @@ Hooks (all methods share one loop, ``core.runs.trainer.train``; a method plugs i
 from __future__ import annotations
 
 import json
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 import torch
 
-from core.config import Config
+from core.config import AgentConfig, Config
 from core.envs.spec import EnvSpec
-from core.modelfree.actor_critic import ActorCritic
+from core.modelfree.learners import Learner, make_learner
 from core.modelfree.replay import PixelReplay
+
+B = TypeVar("B", bound=tuple)
 
 
 @dataclass
@@ -75,26 +79,6 @@ class Agent(Protocol):
     def policy_state(self) -> dict[str, dict[str, torch.Tensor]]: ...
 
 
-class GaussianNoise:
-    """Exploration noise a ← clip(a + N(0, σ²), −1, 1) (Algorithm 2, line 20), in the agents' normalised
-    action space, so σ is σ/2 of each dimension's range in the env's units (``core.envs.spec``).
-
-    σ decays linearly from ``std`` to ``final_std`` over ``anneal_steps`` training steps (the ``paper``
-    profile keeps σ = 1). Draws come from the agent's seeded generator.
-    """
-
-    def __init__(self, std: float, final_std: float, anneal_steps: int) -> None:
-        self.std, self.final_std, self.anneal_steps = std, final_std, max(1, anneal_steps)
-
-    def std_at(self, step: int) -> float:
-        fraction = min(1.0, step / self.anneal_steps)
-        return self.std + fraction * (self.final_std - self.std)
-
-    def perturb(self, action: np.ndarray, step: int, rng: np.random.Generator) -> np.ndarray:
-        noisy = action + rng.normal(0.0, self.std_at(step), size=action.shape)
-        return np.clip(noisy, -1.0, 1.0).astype(np.float32)
-
-
 def generator_state(rng: np.random.Generator) -> str:
     """A NumPy generator's state as a JSON string (safe under ``torch.load(weights_only=True)``)."""
     return json.dumps(rng.bit_generator.state)
@@ -104,97 +88,100 @@ def restore_generator(rng: np.random.Generator, state: str) -> None:
     rng.bit_generator.state = json.loads(state)
 
 
-class ModelFreeAgent:
-    """DDPG or off-policy CACLA (``agent.ac``) on the critic-autoencoder of Fig. 1 with pixel replay.
+class UpdateSchedule:
+    """When the learner updates and how often (Algorithm 2, lines 26-28): after every env step
+    (``agent.update_schedule = per_step``, ``updates_per_step`` minibatches) or after every episode
+    (``per_episode``, the released code), once ``learning_starts`` steps are in the replay. Every agent holds
+    one; ``run(minibatch)`` averages the losses of ``count`` minibatch updates per key."""
 
-    Subclass it (or wrap it) for the dual-system methods: override ``act`` for meta-control,
-    ``stored_reward`` for r = r_ext + r_int, and extend the update/diagnostic hooks.
-    """
+    def __init__(self, agent: AgentConfig) -> None:
+        self.config = agent
+
+    def after_step(self, steps: int, replay_size: int, minibatch: Callable[[], dict[str, float]]) -> dict[str, float]:
+        if self.config.update_schedule != "per_step":
+            return {}
+        return self._run(self.config.updates_per_step, steps, replay_size, minibatch)
+
+    def after_episode(
+        self, steps: int, replay_size: int, minibatch: Callable[[], dict[str, float]]
+    ) -> dict[str, float]:
+        if self.config.update_schedule != "per_episode":
+            return {}
+        return self._run(self.config.updates_per_episode, steps, replay_size, minibatch)
+
+    def _run(
+        self, count: int, steps: int, replay_size: int, minibatch: Callable[[], dict[str, float]]
+    ) -> dict[str, float]:
+        if steps < self.config.learning_starts or replay_size == 0:
+            return {}
+        totals: dict[str, float] = {}
+        for _ in range(count):
+            for key, value in minibatch().items():
+                totals[key] = totals.get(key, 0.0) + value
+        return {key: value / count for key, value in totals.items()}
+
+
+def to_device(batch: B, device: torch.device) -> B:
+    """A replay batch (named tuple of tensors) on ``device``; the same object on the CPU."""
+    if device.type == "cpu":
+        return batch
+    return type(batch)(*(t.to(device) for t in batch))
+
+
+class LearnerAgent:
+    """What every agent of this package and of ``core.dual`` holds and does the same way: a learner
+    (``agent.ac``: DDPG, CACLA, TD3, SAC; ``core.modelfree.learners``), a pixel replay, the update schedule, the
+    step counters and the run's generator; encoding one observation, the greedy policy, the schedule's hooks
+    and persistence. The method itself (``act``, ``observe``, ``episode_diagnostics``) is each agent's own:
+    ``ModelFreeAgent`` below; ``core.dual.im2c.IM2C``, ``core.dual.i2a.I2A``, ``core.dual.baselines``."""
+
+    replay: PixelReplay
 
     def __init__(self, config: Config, spec: EnvSpec, rng: np.random.Generator) -> None:
         self.config = config
         self.spec = spec
         self.rng = rng
         self.device = torch.device(config.run.device)
-        self.learner = ActorCritic(config.net, config.agent, spec).to(self.device)
-        self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)
-        agent_cfg = config.agent
-        self.noise = GaussianNoise(
-            agent_cfg.noise_std, agent_cfg.noise_final_std, agent_cfg.noise_anneal_steps
-        )
+        self.learner = make_learner(config.net, config.agent, spec).to(self.device)
+        self.schedule = UpdateSchedule(config.agent)
         self.steps = 0
         """Training environment steps observed (drives noise annealing and learning_starts)."""
         self.updates = 0
         """Minibatch updates done."""
 
-    # -- acting ----------------------------------------------------------------------------------
     def begin_episode(self, obs: np.ndarray) -> None:
         self.replay.start_episode(obs)
+        self.learner.begin_episode()
 
-    def greedy_action(self, obs: np.ndarray) -> np.ndarray:
-        """μ(f(s)) for one observation, in the normalised action space."""
+    def encode(self, obs: np.ndarray) -> torch.Tensor:
+        """φ = f(s) of one observation, ``[1, latent]`` on the CPU."""
         obs_tensor = torch.from_numpy(np.ascontiguousarray(obs)).unsqueeze(0).to(self.device)
-        return self.learner.policy(self.learner.encode(obs_tensor))[0].cpu().numpy()
+        return self.learner.encode(obs_tensor).cpu()
 
-    def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
-        action = self.greedy_action(obs)
-        if explore:
-            action = self.noise.perturb(action, self.steps, self.rng)
-        return action.astype(np.float32), {}
+    def actor(self, latent: torch.Tensor) -> torch.Tensor:
+        """μ(φ), the learner's deterministic action, on the CPU (what the planner starts from)."""
+        return self.learner.policy(latent.to(self.device)).cpu()
 
-    # -- storing ---------------------------------------------------------------------------------
-    def stored_reward(self, transition: Transition) -> float:
-        """The reward the critic learns from; the extrinsic reward here (dual methods add r_int)."""
-        return transition.reward
+    def greedy(self, latent: torch.Tensor) -> tuple[np.ndarray, dict[str, float]]:
+        """``act(obs, explore=False)``: the deployed policy μ(f(s)), without side effects."""
+        return self.actor(latent)[0].numpy().astype(np.float32), {}
 
-    def observe(self, transition: Transition) -> None:
-        self.replay.add(
-            transition.action,
-            self.stored_reward(transition),
-            transition.next_obs,
-            transition.terminated,
-            reward_ext=transition.reward,
-        )
-        self.steps += 1
-
-    # -- learning --------------------------------------------------------------------------------
-    def ready_to_learn(self) -> bool:
-        return self.steps >= self.config.agent.learning_starts and len(self.replay) > 0
+    def start_value(self, obs: np.ndarray) -> float:
+        """The critic's value of the policy's action at ``obs`` (twins: the smaller)."""
+        return float(self.learner.value_of(self.encode(obs).to(self.device))[0])
 
     def learn_minibatch(self) -> dict[str, float]:
-        """Sample one minibatch from the pixel replay and run the full update (Algorithm 2, lines 26-28)."""
-        batch = self.replay.sample(self.config.agent.batch_size, self.rng)
-        if self.device.type != "cpu":
-            batch = type(batch)(*(t.to(self.device) for t in batch))
+        """One minibatch from the pixel replay and the learner's update (Algorithm 2, lines 26-28)."""
+        batch = to_device(self.replay.sample(self.config.agent.batch_size, self.rng), self.device)
         self.updates += 1
-        return self.learner.update_pixels(batch)
-
-    def _learn(self, count: int) -> dict[str, float]:
-        if not self.ready_to_learn():
-            return {}
-        totals: dict[str, float] = {}
-        for _ in range(count):
-            for key, value in self.learn_minibatch().items():
-                totals[key] = totals.get(key, 0.0) + value
-        return {key: value / count for key, value in totals.items()}
+        return self.learner.update(batch)
 
     def update_after_step(self) -> dict[str, float]:
-        if self.config.agent.update_schedule != "per_step":
-            return {}
-        return self._learn(self.config.agent.updates_per_step)
+        return self.schedule.after_step(self.steps, len(self.replay), self.learn_minibatch)
 
     def update_after_episode(self) -> dict[str, float]:
-        if self.config.agent.update_schedule != "per_episode":
-            return {}
-        return self._learn(self.config.agent.updates_per_episode)
+        return self.schedule.after_episode(self.steps, len(self.replay), self.learn_minibatch)
 
-    def episode_diagnostics(self) -> dict[str, float]:
-        return {
-            "charts/noise_std": self.noise.std_at(self.steps),
-            "charts/replay_size": float(len(self.replay)),
-        }
-
-    # -- persistence -----------------------------------------------------------------------------
     def state_dict(self) -> dict[str, Any]:
         return {
             "learner": self.learner.full_state_dict(),
@@ -216,9 +203,39 @@ class ModelFreeAgent:
         self.replay.load_state_dict(state["pixel"])
 
     def policy_state(self) -> dict[str, dict[str, torch.Tensor]]:
-        learner = self.learner
-        return {
-            "encoder": learner.encoder.state_dict(),
-            "actor": learner.actor.state_dict(),
-            "bounds": learner.bounds.state_dict(),
-        }
+        return self.learner.policy_state()
+
+
+class ModelFreeAgent(LearnerAgent):
+    """The learner alone with its pixel replay: act with the learner's exploration around μ(f(s)), store the
+    extrinsic reward, update on the schedule."""
+
+    def __init__(self, config: Config, spec: EnvSpec, rng: np.random.Generator) -> None:
+        super().__init__(config, spec, rng)
+        self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)
+
+    def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
+        latent = self.encode(obs)
+        if not explore:
+            return self.greedy(latent)
+        action = self.actor(latent)[0].numpy()
+        return self.learner.explore(action, latent[0], self.steps, self.rng).astype(np.float32), {}
+
+    def observe(self, transition: Transition) -> None:
+        self.replay.add(transition.action, transition.reward, transition.next_obs, transition.terminated,
+                        reward_ext=transition.reward)
+        self.steps += 1
+
+    def episode_diagnostics(self) -> dict[str, float]:
+        return learner_diagnostics(self.learner, self.steps, len(self.replay))
+
+
+def learner_diagnostics(learner: Learner, steps: int, replay_size: int) -> dict[str, float]:
+    """Per-episode diagnostics every agent reports: the exploration's scale and the replay's size."""
+    noise = getattr(learner, "noise", None)
+    out = {"charts/replay_size": float(replay_size)}
+    if noise is not None:
+        out = {"charts/noise_std": noise.std_at(steps), **out}
+    else:
+        out["charts/alpha"] = float(getattr(learner, "alpha", math.nan))
+    return out

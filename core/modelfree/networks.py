@@ -28,6 +28,8 @@ answers in the env's units.
 
 from __future__ import annotations
 
+import math
+
 import torch
 from torch import nn
 
@@ -43,10 +45,28 @@ def to_float_chw(obs: torch.Tensor) -> torch.Tensor:
     return obs.permute(0, 3, 1, 2).float().div_(255.0)
 
 
-class Encoder(nn.Module):
-    """f_ω: image → latent φ (ReLU), Fig. 1(a)."""
+class LatentHead(nn.Module):
+    """The encoder's last activation: ReLU (Fig. 1, the paper) or LayerNorm + tanh (SAC-AE, Yarats et al.
+    2019: a bounded latent, so that the actor reading it cannot be driven to saturation by its scale)."""
 
-    def __init__(self, config: NetConfig, obs_shape: tuple[int, int, int] = OBS_SHAPE) -> None:
+    def __init__(self, latent_dim: int, kind: str) -> None:
+        super().__init__()
+        self.kind = kind
+        if kind == "layernorm_tanh":
+            self.norm = nn.LayerNorm(latent_dim)
+
+    def forward(self, features: torch.Tensor) -> torch.Tensor:
+        if self.kind == "layernorm_tanh":
+            return torch.tanh(self.norm(features))
+        return torch.relu(features)
+
+
+class Encoder(nn.Module):
+    """f_ω: image → latent φ (ReLU, or LayerNorm + tanh), Fig. 1(a)."""
+
+    def __init__(
+        self, config: NetConfig, obs_shape: tuple[int, int, int] = OBS_SHAPE, latent: str = "relu"
+    ) -> None:
         super().__init__()
         height, width, in_channels = obs_shape
         stride = 2 if config.arch == "strided" else 1
@@ -60,6 +80,8 @@ class Encoder(nn.Module):
         self.conv = nn.Sequential(*layers)
         self.feature_shape = (channels, height, width)
         self.fc = nn.Linear(channels * height * width, config.latent_dim)
+        self.head = LatentHead(config.latent_dim, latent)
+        self.latent_dim = config.latent_dim
 
     @staticmethod
     def prepare(obs: torch.Tensor) -> torch.Tensor:
@@ -68,7 +90,7 @@ class Encoder(nn.Module):
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
         """``image``: float ``[N, C, H, W]`` in [0, 1]; returns φ ``[N, latent_dim]``."""
-        return torch.relu(self.fc(self.conv(image).flatten(1)))
+        return self.head(self.fc(self.conv(image).flatten(1)))
 
 
 class Decoder(nn.Module):
@@ -98,20 +120,51 @@ class Decoder(nn.Module):
         return torch.sigmoid(self.deconv(hidden))
 
 
-class Critic(nn.Module):
-    """Q(φ, a | θ^Q): concat → hidden ReLU → linear value (Eq. 1)."""
+def mlp(sizes: list[int], activation: type[nn.Module] = nn.ReLU) -> nn.Sequential:
+    """Linear layers of ``sizes`` with ``activation`` between them and none after the last."""
+    layers: list[nn.Module] = []
+    for index, (width, out) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
+        layers.append(nn.Linear(width, out))
+        if index < len(sizes) - 2:
+            layers.append(activation())
+    return nn.Sequential(*layers)
 
-    def __init__(self, config: NetConfig, action_dim: int) -> None:
+
+class Critic(nn.Module):
+    """Q(φ, a | θ^Q): concat → hidden ReLU layers → linear value (Eq. 1)."""
+
+    def __init__(self, latent_dim: int, action_dim: int, hidden: tuple[int, ...]) -> None:
         super().__init__()
-        self.net = nn.Sequential(
-            nn.Linear(config.latent_dim + action_dim, config.critic_hidden),
-            nn.ReLU(),
-            nn.Linear(config.critic_hidden, 1),
-        )
+        self.net = mlp([latent_dim + action_dim, *hidden, 1])
 
     def forward(self, latent: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         """Returns Q-values of shape ``[N]``."""
         return self.net(torch.cat([latent, action], dim=1)).squeeze(1)
+
+
+class TwinCritic(nn.Module):
+    """Two independent critics Q₁, Q₂ (TD3, SAC: clipped double Q-learning, Fujimoto et al. 2018)."""
+
+    def __init__(self, latent_dim: int, action_dim: int, hidden: tuple[int, ...]) -> None:
+        super().__init__()
+        self.q1 = Critic(latent_dim, action_dim, hidden)
+        self.q2 = Critic(latent_dim, action_dim, hidden)
+
+    def forward(self, latent: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        """Returns both Q-values, shape ``[2, N]``."""
+        return torch.stack([self.q1(latent, action), self.q2(latent, action)])
+
+
+def _bounds_affine(
+    obs_dim: int, obs_low: tuple[float, ...] | None, obs_high: tuple[float, ...] | None
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Offset and scale mapping each dimension with finite bounds to [-1, 1] (identity elsewhere)."""
+    offset, scale = torch.zeros(obs_dim), torch.ones(obs_dim)
+    if obs_low is not None and obs_high is not None:
+        low = torch.as_tensor(obs_low, dtype=torch.float32)
+        high = torch.as_tensor(obs_high, dtype=torch.float32)
+        offset, scale = (high + low) / 2, torch.clamp((high - low) / 2, min=1e-8)
+    return offset, scale
 
 
 class VectorEncoder(nn.Module):
@@ -126,13 +179,10 @@ class VectorEncoder(nn.Module):
         obs_dim: int,
         obs_low: tuple[float, ...] | None = None,
         obs_high: tuple[float, ...] | None = None,
+        latent: str = "relu",
     ) -> None:
         super().__init__()
-        offset, scale = torch.zeros(obs_dim), torch.ones(obs_dim)
-        if obs_low is not None and obs_high is not None:
-            low = torch.as_tensor(obs_low, dtype=torch.float32)
-            high = torch.as_tensor(obs_high, dtype=torch.float32)
-            offset, scale = (high + low) / 2, torch.clamp((high - low) / 2, min=1e-8)
+        offset, scale = _bounds_affine(obs_dim, obs_low, obs_high)
         self.register_buffer("offset", offset)
         self.register_buffer("scale", scale)
         layers: list[nn.Module] = []
@@ -142,7 +192,9 @@ class VectorEncoder(nn.Module):
             width = hidden
         self.mlp = nn.Sequential(*layers)
         self.fc = nn.Linear(width, config.latent_dim)
+        self.head = LatentHead(config.latent_dim, latent)
         self.obs_dim = obs_dim
+        self.latent_dim = config.latent_dim
 
     def prepare(self, obs: torch.Tensor) -> torch.Tensor:
         """Stored vectors ``[N, D]`` (any real dtype) → float32, scaled to [-1, 1] by the bounds."""
@@ -150,7 +202,27 @@ class VectorEncoder(nn.Module):
 
     def forward(self, vector: torch.Tensor) -> torch.Tensor:
         """``vector``: prepared float ``[N, D]``; returns φ ``[N, latent_dim]``."""
-        return torch.relu(self.fc(self.mlp(vector)))
+        return self.head(self.fc(self.mlp(vector)))
+
+
+class ScaledObservation(VectorEncoder):
+    """No learned encoder (``net.encoder = none``): φ is the observation scaled to [-1, 1] by its finite bounds,
+    so actor and critic are the textbook MLPs on the observation (SB3's MlpPolicy, CleanRL)."""
+
+    def __init__(
+        self,
+        obs_dim: int,
+        obs_low: tuple[float, ...] | None = None,
+        obs_high: tuple[float, ...] | None = None,
+    ) -> None:
+        nn.Module.__init__(self)
+        offset, scale = _bounds_affine(obs_dim, obs_low, obs_high)
+        self.register_buffer("offset", offset)
+        self.register_buffer("scale", scale)
+        self.obs_dim = self.latent_dim = obs_dim
+
+    def forward(self, vector: torch.Tensor) -> torch.Tensor:
+        return vector
 
 
 class VectorDecoder(nn.Module):
@@ -171,39 +243,106 @@ class VectorDecoder(nn.Module):
 
 
 ObservationEncoder = Encoder | VectorEncoder
-"""Either encoder; both have ``prepare(stored obs) -> input`` and ``forward(input) -> φ``."""
+"""Any encoder (ScaledObservation is a VectorEncoder); each has ``prepare(stored obs) -> input``,
+``forward(input) -> φ`` and ``latent_dim``."""
 
 
-def make_encoder(config: NetConfig, spec: EnvSpec) -> ObservationEncoder:
-    """The encoder f_ω the observation's kind calls for (images: convolutional; vectors: MLP)."""
+def make_encoder(config: NetConfig, spec: EnvSpec, ac: str = "ddpg") -> ObservationEncoder:
+    """The encoder f_ω the observation's kind and ``net.encoder`` call for (images: convolutional; vectors: an
+    MLP, or none); its last activation is ``net.latent_activation`` resolved for actor-critic ``ac``."""
+    latent = resolved_latent_activation(config, ac)
     if spec.obs_kind == "image":
-        return Encoder(config, tuple(spec.obs_shape))  # type: ignore[arg-type]
-    return VectorEncoder(config, int(spec.obs_shape[0]), spec.obs_low, spec.obs_high)
+        if config.encoder == "none":
+            raise ValueError("net.encoder=none is for vector observations; images need the learned encoder")
+        return Encoder(config, tuple(spec.obs_shape), latent)  # type: ignore[arg-type]
+    if config.encoder == "none":
+        return ScaledObservation(int(spec.obs_shape[0]), spec.obs_low, spec.obs_high)
+    return VectorEncoder(config, int(spec.obs_shape[0]), spec.obs_low, spec.obs_high, latent)
 
 
-def make_decoder(config: NetConfig, encoder: ObservationEncoder, spec: EnvSpec) -> nn.Module:
-    """The decoder g_ω̃ mirroring ``encoder``."""
+def resolved_latent_activation(config: NetConfig, ac: str) -> str:
+    """``net.latent_activation``, with ``auto`` → ReLU for DDPG/CACLA (the paper), LayerNorm + tanh for
+    TD3/SAC (SAC-AE's bounded latent)."""
+    if config.latent_activation != "auto":
+        return config.latent_activation
+    return "layernorm_tanh" if ac in ("td3", "sac") else "relu"
+
+
+def make_decoder(config: NetConfig, encoder: ObservationEncoder, spec: EnvSpec) -> nn.Module | None:
+    """The decoder g_ω̃ mirroring ``encoder``; None without a learned encoder (nothing to reconstruct)."""
     if isinstance(encoder, Encoder):
         return Decoder(config, encoder, out_channels=int(spec.obs_shape[2]))
+    if isinstance(encoder, ScaledObservation):
+        return None
     return VectorDecoder(config, encoder.obs_dim)
 
 
-class Actor(nn.Module):
-    """μ(φ | θ^μ): hidden layer → tanh output in the normalised action space [-1, 1], Fig. 1(b)."""
+def head_sizes(config: NetConfig, spec: EnvSpec) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """Hidden layers of (actor, critic): the paper's one-layer heads on a learned latent, or
+    ``net.mlp_hidden`` for both when there is no encoder (the textbook networks)."""
+    if config.encoder == "none" and spec.obs_kind != "image":
+        return tuple(config.mlp_hidden), tuple(config.mlp_hidden)
+    return (config.actor_hidden,), (config.critic_hidden,)
 
-    def __init__(self, config: NetConfig, action_dim: int) -> None:
+
+def make_actor(config: NetConfig, spec: EnvSpec, ac: str, latent_dim: int) -> Actor:
+    """The actor of actor-critic ``ac``: deterministic μ(φ) (DDPG, CACLA, TD3) or squashed Gaussian (SAC)."""
+    hidden, _ = head_sizes(config, spec)
+    cls = SquashedGaussianActor if ac == "sac" else Actor
+    return cls(latent_dim, spec.action_dim, hidden, config.actor_activation)
+
+
+class Actor(nn.Module):
+    """μ(φ | θ^μ): hidden layers → tanh output in the normalised action space [-1, 1], Fig. 1(b)."""
+
+    def __init__(self, latent_dim: int, action_dim: int, hidden: tuple[int, ...], activation: str) -> None:
         super().__init__()
-        activation: nn.Module = nn.Tanh() if config.actor_activation == "tanh" else nn.ReLU()
-        self.net = nn.Sequential(
-            nn.Linear(config.latent_dim, config.actor_hidden),
-            activation,
-            nn.Linear(config.actor_hidden, action_dim),
-            nn.Tanh(),
-        )
+        layer = nn.Tanh if activation == "tanh" else nn.ReLU
+        self.net = nn.Sequential(*mlp([latent_dim, *hidden, action_dim], layer), nn.Tanh())
         self.action_dim = action_dim
 
     def forward(self, latent: torch.Tensor) -> torch.Tensor:
         return self.net(latent)
+
+
+LOG_STD_MIN, LOG_STD_MAX = -20.0, 2.0
+"""Bounds of the Gaussian's log standard deviation (SB3's and SAC's reference implementation)."""
+
+
+class SquashedGaussianActor(Actor):
+    """SAC's policy π(a | φ) = tanh(u), u ~ N(m(φ), σ(φ)²) (Haarnoja et al. 2018, Appendix C).
+
+    ``forward`` is the deterministic action tanh(m(φ)) — what is deployed, exported and planned from;
+    ``sample`` draws a ~ π with its log-probability (the change of variables of the tanh squashing).
+    """
+
+    def __init__(self, latent_dim: int, action_dim: int, hidden: tuple[int, ...], activation: str) -> None:
+        nn.Module.__init__(self)
+        layer = nn.Tanh if activation == "tanh" else nn.ReLU
+        self.trunk = nn.Sequential(*mlp([latent_dim, *hidden], layer), layer())
+        self.mean = nn.Linear(hidden[-1], action_dim)
+        self.log_std = nn.Linear(hidden[-1], action_dim)
+        self.action_dim = action_dim
+
+    def distribution(self, latent: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Mean and clamped log-std of the Gaussian before the squashing, each ``[N, action_dim]``."""
+        features = self.trunk(latent)
+        return self.mean(features), self.log_std(features).clamp(LOG_STD_MIN, LOG_STD_MAX)
+
+    def forward(self, latent: torch.Tensor) -> torch.Tensor:
+        return torch.tanh(self.distribution(latent)[0])
+
+    def sample(
+        self, latent: torch.Tensor, noise: torch.Tensor | None = None
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """a = tanh(m + σ ε) with ε ~ N(0, I) (or ``noise``), and log π(a | φ) ``[N]``:
+        log N(u; m, σ) − Σ log(1 − tanh(u)²), the last term as 2 (log 2 − u − softplus(−2u)) for stability."""
+        mean, log_std = self.distribution(latent)
+        eps = torch.randn_like(mean) if noise is None else noise
+        u = mean + log_std.exp() * eps
+        gaussian = (-0.5 * eps.pow(2) - log_std - 0.5 * math.log(2 * math.pi)).sum(dim=1)
+        squash = (2 * (math.log(2.0) - u - nn.functional.softplus(-2 * u))).sum(dim=1)
+        return torch.tanh(u), gaussian - squash
 
 
 class ActionBounds(nn.Module):

@@ -145,7 +145,7 @@ class RNDAgent(ModelFreeAgent):
             reward_ext=batch.reward_ext,
         )
         self.updates += 1
-        return {**self.learner.update_pixels(shaped), "losses/rnd_predictor": rnd_loss}
+        return {**self.learner.update(shaped), "losses/rnd_predictor": rnd_loss}
 
     def episode_diagnostics(self) -> dict[str, float]:
         out = super().episode_diagnostics()

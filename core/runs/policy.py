@@ -19,7 +19,15 @@ import torch
 
 from core.config import Config
 from core.envs.spec import EnvSpec
-from core.modelfree.networks import ActionBounds, Actor, ObservationEncoder, PolicyNetwork, make_encoder
+from core.modelfree.networks import (
+    ActionBounds,
+    Actor,
+    ObservationEncoder,
+    PolicyNetwork,
+    make_actor,
+    make_encoder,
+)
+from core.runs.methods import MODEL_FREE_ALGOS
 from core.runs.run_dir import RunDirectory, load_checkpoint
 
 
@@ -119,8 +127,9 @@ def load_policy(path: Path | str) -> Policy:
     spec = EnvSpec.from_dict(
         {**state, "action_dim": state.get("action_dim", _output_size(actor_weights))}
     )
-    encoder = make_encoder(config.net, spec)
-    actor = Actor(config.net, spec.action_dim)
+    ac = config.run.algo if config.run.algo in MODEL_FREE_ALGOS else config.agent.ac
+    encoder = make_encoder(config.net, spec, ac)
+    actor = make_actor(config.net, spec, ac, encoder.latent_dim)
     bounds = ActionBounds(*(torch.from_numpy(b) for b in spec.bounds()))
     encoder.load_state_dict(weights["encoder"])
     actor.load_state_dict(actor_weights)

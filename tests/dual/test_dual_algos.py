@@ -11,13 +11,13 @@ import pytest
 import torch
 
 from core.config import PAPER_DUAL_OVERRIDES, load_config
-from core.dual.imagination import imagination_probability, imagination_update, la_imagination_rollout
+from core.dual.baselines import ValueExpansion
+from core.dual.imagination import imagination_probability, la_imagination_rollout
 from core.dual.meta_controller import MetaController
-from core.dual.value_expansion import ValueExpansionActorCritic
 from core.dual.world_models import LocalWorldModels
 from core.envs.spec import EnvSpec
-from core.modelfree.actor_critic import ActorCritic
 from core.modelfree.agent import Transition
+from core.modelfree.learners import Learner, make_learner
 from core.modelfree.networks import to_float_chw
 from core.modelfree.replay import LatentBatch, PixelBatch
 from core.runs.methods import make_agent
@@ -51,18 +51,18 @@ def test_i2a_adds_exactly_h_imagined_transitions_per_model_based_step() -> None:
     agent.begin_episode(obs)
     model_based_steps = 0
     for _ in range(80):
-        before_size, before_mb = len(agent.latent_replay), len(agent.counters.horizons)
+        before_size, before_mb = len(agent.latent_replay), len(agent.dual.counters.horizons)
         _step(agent, obs)
         added = len(agent.latent_replay) - before_size
-        if len(agent.counters.horizons) > before_mb:
+        if len(agent.dual.counters.horizons) > before_mb:
             model_based_steps += 1
-            horizon = agent.counters.horizons[-1]
+            horizon = agent.dual.counters.horizons[-1]
             assert 1 <= horizon <= agent.config.dual.d_max
             assert added == horizon
         else:
             assert added == 0
     assert model_based_steps > 0  # a repeated image: the model improves, LP ≥ 0, model-based decisions
-    assert agent.counters.imagined == sum(agent.counters.horizons) == len(agent.latent_replay)
+    assert agent.dual.counters.imagined == sum(agent.dual.counters.horizons) == len(agent.latent_replay)
 
 
 def test_arbitration_model_free_ablation_never_plans_but_keeps_intrinsic_reward() -> None:
@@ -71,10 +71,10 @@ def test_arbitration_model_free_ablation_never_plans_but_keeps_intrinsic_reward(
     agent.begin_episode(obs)
     for _ in range(80):  # the same repeated image makes the full I2A go model-based (test above)
         _step(agent, obs)
-    assert agent.meta is None
-    assert agent.counters.horizons == [] and len(agent.latent_replay) == 0
-    assert agent.counters.mf_decisions == 80
-    assert any(value != 0.0 for value in agent.counters.intrinsic)
+    assert agent.dual.meta is None
+    assert agent.dual.counters.horizons == [] and len(agent.latent_replay) == 0
+    assert agent.dual.counters.mf_decisions == 80
+    assert any(value != 0.0 for value in agent.dual.counters.intrinsic)
 
 
 def test_plan_action_shift_is_the_distance_of_the_executed_action_from_the_actors() -> None:
@@ -83,8 +83,8 @@ def test_plan_action_shift_is_the_distance_of_the_executed_action_from_the_actor
     agent.begin_episode(obs)
     for _ in range(80):
         _step(agent, obs)
-    shifts = agent.counters.action_shifts
-    assert len(shifts) == len(agent.counters.horizons) > 0
+    shifts = agent.dual.counters.action_shifts
+    assert len(shifts) == len(agent.dual.counters.horizons) > 0
     assert all(0.0 <= shift <= 2.0 for shift in shifts)
     assert max(shifts) > 0.0  # a large α_plan moves the action
     diagnostics = agent.episode_diagnostics()
@@ -97,13 +97,13 @@ def test_im2c_stores_nothing_imagined_and_stores_r_ext_plus_r_int() -> None:
     agent.begin_episode(obs)
     for _ in range(10):
         _step(agent, obs, reward=-0.25)
-    assert agent.latent_replay is None
+    assert not hasattr(agent, "latent_replay")
     stored = agent.replay.reward[:10]
-    intrinsic = np.array(agent.counters.intrinsic, dtype=np.float32)
+    intrinsic = np.array(agent.dual.counters.intrinsic, dtype=np.float32)
     np.testing.assert_allclose(stored, -0.25 + intrinsic, atol=1e-6)
     np.testing.assert_allclose(agent.replay.reward_ext[:10], -0.25)
     # Released-code LP: the first error of a node gives LP = −1, so r_int = +c (the intrinsic scale).
-    assert agent.counters.intrinsic[0] == pytest.approx(agent.config.dual.intrinsic_scale)
+    assert agent.dual.counters.intrinsic[0] == pytest.approx(agent.config.dual.intrinsic_scale)
 
 
 def test_greedy_act_is_mu_of_f_and_changes_no_learning_state() -> None:
@@ -112,14 +112,14 @@ def test_greedy_act_is_mu_of_f_and_changes_no_learning_state() -> None:
     agent.begin_episode(obs)
     for _ in range(15):
         _step(agent, obs)
-    snapshot = copy.deepcopy((agent.world.state_dict(), len(agent.replay), len(agent.latent_replay),
-                              agent.rng.bit_generator.state, agent.counters.__dict__))
+    snapshot = copy.deepcopy((agent.dual.world.state_dict(), len(agent.replay), len(agent.latent_replay),
+                              agent.rng.bit_generator.state, agent.dual.counters.__dict__))
     action, _ = agent.act(_obs(3), explore=False)
     with torch.no_grad():
         expected = agent.learner.actor(agent.learner.encoder(to_float_chw(torch.from_numpy(_obs(3))[None])))
     np.testing.assert_allclose(action, expected[0].numpy(), atol=1e-6)
-    after = (agent.world.state_dict(), len(agent.replay), len(agent.latent_replay),
-             agent.rng.bit_generator.state, agent.counters.__dict__)
+    after = (agent.dual.world.state_dict(), len(agent.replay), len(agent.latent_replay),
+             agent.rng.bit_generator.state, agent.dual.counters.__dict__)
     assert after[1:] == snapshot[1:]
     for part, tensors in snapshot[0].items():
         for key, value in tensors.items():
@@ -170,10 +170,10 @@ def test_la_imagination_probability_and_depth() -> None:
     assert (depths >= 2).mean() == pytest.approx(0.25**2, abs=0.02)
 
 
-def _learner(ac: str = "ddpg") -> ActorCritic:
+def _learner(ac: str = "ddpg") -> Learner:
     torch.manual_seed(3)
     config = load_config("default", ["net.conv_channels=4,4,4", f"agent.ac={ac}", "agent.critic_passes=1"])
-    return ActorCritic(config.net, config.agent, SPEC)
+    return make_learner(config.net, config.agent, SPEC)
 
 
 def _batches(n: int = 6) -> tuple[PixelBatch, LatentBatch]:
@@ -196,7 +196,7 @@ def test_imagination_update_is_algorithm_3_lines_34_to_37(ac: str, actor_on_imag
     learner = _learner(ac)
     reference = copy.deepcopy(learner)
     pixel, latent = _batches()
-    imagination_update(learner, pixel, latent, actor_on_imagined=actor_on_imagined)
+    learner.update_with_imagination(pixel, latent, actor_on_imagined=actor_on_imagined)
 
     ref, cfg = reference, reference.agent_config
     obs = to_float_chw(pixel.obs)
@@ -227,10 +227,9 @@ def test_imagination_update_is_algorithm_3_lines_34_to_37(ac: str, actor_on_imag
     with torch.no_grad():
         phi_after = ref.encoder(obs)
     if actor_on_imagined:
-        ref.actor_update(ref, torch.cat([phi_after, latent.latent]), a_all, y_all)
+        ref.policy_step(torch.cat([phi_after, latent.latent]), a_all, y_all)
     else:
-        ref.actor_update(ref, phi_after, pixel.action, y_pixel)
-    ref.update_targets()
+        ref.policy_step(phi_after, pixel.action, y_pixel)
 
     for (name, got), (_, want) in zip(learner.state_dict().items(), ref.state_dict().items(), strict=True):
         torch.testing.assert_close(got, want, atol=1e-6, rtol=1e-5, msg=name)
@@ -246,9 +245,13 @@ def test_mve_target_expands_h_model_steps() -> None:
     bank.params["bm"][0] = constant
     bank.params["br"][0] = 0.3
     torch.manual_seed(0)
-    mve = ValueExpansionActorCritic(config.net, config.agent, SPEC, model=bank, horizon=2)
-    plain = ValueExpansionActorCritic(config.net, config.agent, SPEC, model=bank, horizon=0)
+    mve = make_learner(config.net, config.agent, SPEC)
+    mve.value_expansion = ValueExpansion(bank, horizon=2)
+    plain = make_learner(config.net, config.agent, SPEC)
     plain.load_state_dict(mve.state_dict())
+    plain.value_expansion = ValueExpansion(bank, horizon=0)
+    learner_alone = make_learner(config.net, config.agent, SPEC)
+    learner_alone.load_state_dict(mve.state_dict())
     reward, next_latent = torch.tensor([0.5, -1.0]), torch.rand(2, 32)
     terminated = torch.tensor([0.0, 1.0])
     gamma = config.agent.gamma
@@ -257,7 +260,7 @@ def test_mve_target_expands_h_model_steps() -> None:
         expected = reward + gamma * (1 - terminated) * (0.3 + gamma * 0.3 + gamma**2 * tail)
         torch.testing.assert_close(mve.td_target(reward, next_latent, terminated), expected)
         torch.testing.assert_close(plain.td_target(reward, next_latent, terminated),
-                                   ActorCritic.td_target(plain, reward, next_latent, terminated))
+                                   learner_alone.td_target(reward, next_latent, terminated))
 
 
 def test_world_models_follow_itm_events_and_report_pre_update_error() -> None:
@@ -308,7 +311,7 @@ def test_agent_state_round_trips_through_weights_only_load() -> None:
     clone.load_state_dict(saved["agent"])
     clone.load_replay_state_dict(saved["replay"])
     clone.begin_episode(obs)
-    assert clone.world.num_nodes == agent.world.num_nodes
+    assert clone.dual.world.num_nodes == agent.dual.world.num_nodes
     assert len(clone.latent_replay) == len(agent.latent_replay)
     for _ in range(5):
         np.testing.assert_allclose(_step(clone, obs), _step(agent, obs), atol=1e-6)
@@ -353,7 +356,7 @@ def test_agent_refits_every_n_real_steps_on_its_replay_and_reports_the_drift() -
     agent.begin_episode(obs)
     for _ in range(22):
         _step(agent, obs)
-    assert len(agent.counters.refit_errors) == 4
+    assert len(agent.dual.counters.refit_errors) == 4
     diagnostics = agent.episode_diagnostics()
     assert np.isfinite(diagnostics["dual/refit_error"])
     assert "dual/refit_error" not in _agent("im2c", "dual.refit_every=0").episode_diagnostics()
@@ -364,10 +367,10 @@ def test_no_change_error_is_eq8_of_predicting_phi_t_and_zero_reward() -> None:
     first, second = _obs(3), _obs(4)
     agent.begin_episode(first)
     action, _ = agent.act(first, explore=True)
-    phi, next_phi = agent._encode(first)[0], agent._encode(second)[0]
+    phi, next_phi = agent.encode(first)[0], agent.encode(second)[0]
     agent.observe(Transition(first, action, 0.5, second, False, False))
     expected = float((next_phi - phi).norm() + 0.5)
-    assert agent.counters.naive_errors == [pytest.approx(expected, rel=1e-5)]
+    assert agent.dual.counters.naive_errors == [pytest.approx(expected, rel=1e-5)]
     assert agent.episode_diagnostics()["dual/no_change_error"] == pytest.approx(expected, rel=1e-5)
 
 
@@ -418,8 +421,8 @@ def test_i2a_imagines_at_learn_time_from_the_current_encoder_and_stores_nothing(
         _step(agent, _obs(step % 3))
         agent.update_after_step()
     assert len(agent.latent_replay) == 0  # B_latent of Alg. 3 line 17 is not used
-    agent.world.heldout.trusted[:] = True  # every region trusted: the rollouts run up to D_max steps
-    agent.world.heldout.ratio[:] = 0.0  # and every transition passes the gate
+    agent.dual.world.heldout.trusted[:] = True  # every region trusted: the rollouts run up to D_max steps
+    agent.dual.world.heldout.ratio[:] = 0.0  # and every transition passes the gate
     frames = torch.from_numpy(np.stack([_obs(0), _obs(1)]))
     batch = agent._imagine_from(frames)
     with torch.no_grad():
@@ -427,7 +430,7 @@ def test_i2a_imagines_at_learn_time_from_the_current_encoder_and_stores_nothing(
     assert batch is not None and batch.latent.shape[0] <= agent.config.dual.latent_batch_size
     first_steps = [row for row in batch.latent if any(torch.allclose(row, c, atol=1e-6) for c in current)]
     assert first_steps  # rollouts start at the minibatch's latents under the encoder as it is now
-    assert agent.counters.imagined >= batch.latent.shape[0]
+    assert agent.dual.counters.imagined >= batch.latent.shape[0]
 
 
 def test_imagined_reward_carries_the_intrinsic_reward_of_the_transition_when_asked() -> None:
@@ -438,7 +441,7 @@ def test_imagined_reward_carries_the_intrinsic_reward_of_the_transition_when_ask
     for step in range(30):
         _step(agent, _obs(step % 3))
         agent.update_after_step()
-    world = agent.world
+    world = agent.dual.world
     world.heldout.progress[:] = 0.5  # every region improving: r_int = c · 0.5 / s
     with torch.no_grad():
         phi = agent.learner.encode(torch.from_numpy(np.stack([_obs(0), _obs(1)])))

@@ -23,7 +23,7 @@ from core.dual.checks.reliability import STREAMS, real_model_change, reliability
 from core.dual.checks.world_model import error_ratio, world_model_check
 from core.envs import NicoGraspEnv
 from core.envs.spec import EnvSpec
-from core.modelfree.actor_critic import ActorCritic
+from core.modelfree.learners import make_learner
 from dualsys_cli.main import app
 
 KEYS = {
@@ -89,7 +89,7 @@ def _nico_grasp_latents(steps: int = 1200) -> list[tuple]:
     config = load_config("default")
     torch.manual_seed(0)
     spec = EnvSpec(obs_shape=(32, 64, 3), action_dim=actions[0].shape[0])
-    learner = ActorCritic(config.net, config.agent, spec)
+    learner = make_learner(config.net, config.agent, spec)
     with torch.no_grad():
         phi = learner.encode(torch.from_numpy(np.stack(frames))).numpy()
         nxt = learner.encode(torch.from_numpy(np.stack(nexts))).numpy()

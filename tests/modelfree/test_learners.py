@@ -1,4 +1,4 @@
-"""Eq. 1-4 updates, the CACLA δ > 0 rule, DDPG leaving the critic alone, τ-exact target updates."""
+"""The paper's learners: Eq. 1-4 updates, the CACLA δ > 0 rule, DDPG leaving the critic alone, τ-exact target updates."""
 
 from __future__ import annotations
 
@@ -10,7 +10,8 @@ import torch
 
 from core.config import load_config
 from core.envs.spec import EnvSpec
-from core.modelfree.actor_critic import ActorCritic, CACLAActorUpdate, DDPGActorUpdate, soft_update
+from core.modelfree.learners import Learner, make_learner
+from core.modelfree.learners.base import soft_update
 from core.modelfree.networks import ActionBounds, Actor, Encoder, PolicyNetwork, multiply_adds_per_image
 from core.modelfree.replay import PixelBatch
 
@@ -19,10 +20,10 @@ NICO_SPEC = EnvSpec(obs_shape=(32, 64, 3), action_dim=1)
 TINY = ["net.conv_channels=4,4", "net.latent_dim=8", "net.critic_hidden=8", "net.actor_hidden=8"]
 
 
-def learner(ac: str = "ddpg", extra: tuple[str, ...] = ()) -> ActorCritic:
+def learner(ac: str = "ddpg", extra: tuple[str, ...] = ()) -> Learner:
     torch.manual_seed(0)
     config = load_config("default", [*TINY, f"agent.ac={ac}", *extra])
-    return ActorCritic(config.net, config.agent, NICO_SPEC)
+    return make_learner(config.net, config.agent, NICO_SPEC)
 
 
 def batch(size: int = 16, seed: int = 0) -> PixelBatch:
@@ -50,9 +51,9 @@ def test_td_target_is_eq_1_with_termination():
 def test_combined_loss_falls_on_a_fixed_batch():
     ac = learner(extra=("agent.critic_lr=3e-3",))
     data = batch(32)
-    first = ac.update_pixels(data)
+    first = ac.update(data)
     for _ in range(60):
-        last = ac.update_pixels(data)
+        last = ac.update(data)
     assert last["losses/critic"] < 0.5 * first["losses/critic"]
     assert last["losses/rec"] < first["losses/rec"]
 
@@ -67,12 +68,12 @@ def test_cacla_moves_the_actor_only_on_positive_td_samples():
     sign = torch.tensor([1.0, -1.0, 1.0, -1.0, -1.0, 1.0, -1.0, -1.0, 1.0, -1.0, -1.0, -1.0])
     target = on_policy_value + 0.1 * sign  # δ = target − Q(φ, μ(φ)) = 0.1·sign
     positive = sign > 0
-    assert torch.equal(CACLAActorUpdate.positive_mask(ac, latent, target), positive)
+    assert torch.equal(ac.positive_mask(latent, target), positive)
 
     reference = copy.deepcopy(ac)
     changed_negatives = action.clone()
     changed_negatives[~positive] = -changed_negatives[~positive]  # actions where δ ≤ 0 must not matter
-    result = CACLAActorUpdate(3)(ac, latent, changed_negatives, target)
+    result = ac.policy_step(latent, changed_negatives, target)
     assert result.positive_fraction == pytest.approx(positive.float().mean().item())
 
     # The same update done by hand on the positive samples only (Eq. 3).
@@ -92,24 +93,24 @@ def test_cacla_moves_the_actor_only_on_positive_td_samples():
 
 
 def test_cacla_with_no_positive_td_leaves_the_actor_unchanged():
-    ac = learner("cacla")
+    ac = learner("cacla", ("agent.cacla_actor_passes=5",))
     latent = torch.rand(6, 8)
     with torch.no_grad():
         target = ac.critic(latent, ac.actor(latent)) - 0.5
     before = [p.clone() for p in ac.actor.parameters()]
-    result = CACLAActorUpdate(5)(ac, latent, torch.zeros(6, 1), target)
+    result = ac.policy_step(latent, torch.zeros(6, 1), target)
     assert result.positive_fraction == 0.0
     for old, new in zip(before, ac.actor.parameters(), strict=True):
         assert torch.equal(old, new)
 
 
 def test_ddpg_actor_step_ascends_q_and_leaves_critic_untouched():
-    ac = learner("ddpg", ("agent.actor_lr=1e-2",))
+    ac = learner("ddpg", ("agent.actor_lr=1e-2", "agent.ddpg_actor_passes=20"))
     latent = torch.rand(32, 8)
     critic_before = [p.clone() for p in ac.critic.parameters()]
     with torch.no_grad():
         q_before = ac.critic(latent, ac.actor(latent)).mean()
-    DDPGActorUpdate(20)(ac, latent, torch.zeros(32, 1), torch.zeros(32))
+    ac.policy_step(latent, torch.zeros(32, 1), torch.zeros(32))
     with torch.no_grad():
         q_after = ac.critic(latent, ac.actor(latent)).mean()
     assert q_after > q_before  # Eq. 2: gradient ascent on Q
@@ -133,33 +134,18 @@ def test_soft_update_is_tau_exact():
 def test_update_moves_targets_by_tau_only():
     ac = learner(extra=("agent.tau=0.1",))
     target_before = [p.clone() for p in ac.target_critic.parameters()]
-    ac.update_pixels(batch())
+    ac.update(batch())
     for before, now, online in zip(
         target_before, ac.target_critic.parameters(), ac.critic.parameters(), strict=True
     ):
         assert torch.allclose(now, before + 0.1 * (online - before), atol=1e-6)
 
 
-def test_update_latents_trains_critic_head_not_encoder():
-    ac = learner()
-    encoder_before = [p.clone() for p in ac.encoder.parameters()]
-    critic_before = [p.clone() for p in ac.critic.parameters()]
-    from core.modelfree.replay import LatentBatch
-
-    latent_batch = LatentBatch(
-        torch.rand(8, 8), torch.rand(8, 1), torch.rand(8), torch.rand(8, 8), torch.zeros(8)
-    )
-    losses = ac.update_latents(latent_batch)
-    assert np.isfinite(losses["losses/latent_critic"])
-    assert all(torch.equal(a, b) for a, b in zip(encoder_before, ac.encoder.parameters(), strict=True))
-    assert not all(torch.equal(a, b) for a, b in zip(critic_before, ac.critic.parameters(), strict=True))
-
-
 def test_action_bounds_are_buffers_and_policy_network_takes_uint8():
     config = load_config("default", TINY)
     bounds = ActionBounds([-0.5, 2.0], [0.5, 4.0])
     assert {"low", "high"} <= set(dict(bounds.named_buffers()))
-    network = PolicyNetwork(Encoder(config.net), Actor(config.net, 2), bounds)
+    network = PolicyNetwork(Encoder(config.net), Actor(8, 2, (8,), "relu"), bounds)
     actions = network(torch.randint(0, 256, (3, 32, 64, 3), dtype=torch.uint8))
     assert actions.shape == (3, 2)
     assert actions[:, 0].abs().max() <= 0.5 and bool(((actions[:, 1] >= 2.0) & (actions[:, 1] <= 4.0)).all())

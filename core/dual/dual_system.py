@@ -1,0 +1,193 @@
+"""The dual system's side of one step, shared by every dual-system agent (``im2c.py``, ``i2a.py``,
+``baselines.py``): regions and local world models, the meta-controller, r_int, the local models' refit, the
+per-episode diagnostics and what a checkpoint keeps of them.
+
+An agent *holds* a :class:`DualSystem` beside its learner and replay and calls it in its algorithm box's order:
+:meth:`DualSystem.locate` (Alg. 2 lines 10-11), :meth:`DualSystem.decide` (12-19), :meth:`DualSystem.learn`
+(22 and 25, returning r_int for line 23), :meth:`DualSystem.refit_due` / :meth:`DualSystem.refit` (the refit
+repair), :meth:`DualSystem.diagnostics` at each episode's end.
+
+Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_error`` (mean Eq. 8 error
+of the real transitions), ``no_change_error`` (the same error of the predictor φ̂′ = φ_t, r̂ = 0: the
+latent scale the model error is read against), ``mb_decisions`` / ``mf_decisions`` (counts),
+``horizon`` (mean H of the model-based decisions, NaN when none), ``itm_nodes``, ``imagined`` (latent
+transitions added), ``intrinsic_reward`` (mean r_int), ``plan_loss_drop`` (mean L_plan decrease over
+the K MPC steps), ``plan_action_shift`` (mean max-abs difference between the executed MPC action and the
+actor's μ(φ_t)), and with ``dual.refit_every`` set, ``refit_error`` (mean Eq. 8 error of the refit batches
+before the step).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import torch
+
+from core.config import DualConfig
+from core.dual.meta_controller import MetaController
+from core.dual.planning import ActorFn, PlanResult, Rollout
+from core.dual.world_models import LocalWorldModels
+from core.modelfree.replay import LatentReplay, PixelBatch
+
+
+class EpisodeCounters:
+    """Per-episode sums behind the ``dual/…`` diagnostics."""
+
+    def __init__(self) -> None:
+        self.errors: list[float] = []
+        self.naive_errors: list[float] = []
+        self.intrinsic: list[float] = []
+        self.horizons: list[int] = []
+        self.plan_drops: list[float] = []
+        self.action_shifts: list[float] = []
+        self.refit_errors: list[float] = []
+        self.mf_decisions = 0
+        self.imagined = 0
+
+
+def mean_or_nan(values: list[float] | list[int]) -> float:
+    return float(np.mean(values)) if values else math.nan
+
+
+class DualSystem:
+    """Local world models over regions, the meta-controller (or none), and their bookkeeping."""
+
+    def __init__(
+        self,
+        dual: DualConfig,
+        latent_dim: int,
+        action_dim: int,
+        rng: np.random.Generator,
+        *,
+        regions: bool = True,
+        arbitration: bool = True,
+        fixed_horizon: int | None = None,
+    ) -> None:
+        self.config = dual
+        model_seed = int(rng.integers(0, 2**62))
+        self.world = LocalWorldModels(dual, latent_dim, action_dim, regions=regions,
+                                      generator=torch.Generator().manual_seed(model_seed))
+        if dual.arbitration == "model_free":  # ablation: the model-based system is never picked
+            arbitration = False
+        self.meta = MetaController(self.world, dual, fixed_horizon=fixed_horizon) if arbitration else None
+        self.counters = EpisodeCounters()
+        self.total_imagined = 0
+        self.total_mb_decisions = 0
+        self.total_mf_decisions = 0
+
+    # -- acting (Alg. 2 lines 10-19) -------------------------------------------------------------
+    def locate(self, phi: torch.Tensor) -> int:
+        """Lines 10-11: the ITM update with φ_t; the node n it matched."""
+        return self.world.observe_state(phi[0])
+
+    def decide(self, phi: torch.Tensor, node: int, actor: ActorFn) -> tuple[np.ndarray, Rollout | None]:
+        """Lines 12-19: the meta-controller's action before exploration, and its rollout when model-based."""
+        if self.meta is None:
+            self._count_model_free()
+            return actor(phi)[0].numpy(), None
+        decision = self.meta.decide(phi, node, actor)
+        if decision.model_based and decision.rollout is not None:
+            self._count_model_based(decision.rollout, decision.plan)
+            return decision.action.numpy(), decision.rollout
+        self._count_model_free()
+        return decision.action.numpy(), None
+
+    def _count_model_free(self) -> None:
+        self.counters.mf_decisions += 1
+        self.total_mf_decisions += 1
+
+    def _count_model_based(self, rollout: Rollout, plan: PlanResult | None) -> None:
+        self.counters.horizons.append(rollout.depth)
+        self.total_mb_decisions += 1
+        if plan is not None:
+            self.counters.plan_drops.append(plan.initial_loss - plan.final_loss)
+            # How far the MPC moved the executed action from μ(φ_t), the rollout's first action.
+            initial = rollout.actions[0].clamp(-1.0, 1.0)
+            self.counters.action_shifts.append(float((plan.action - initial).abs().max()))
+
+    def count_imagined(self, count: int) -> None:
+        self.counters.imagined += count
+        self.total_imagined += count
+
+    def store_imagined(self, rollout: Rollout | None, latent_replay: LatentReplay) -> None:
+        """Alg. 3 line 17: the rollout's imagined transitions into B_latent."""
+        if rollout is None or rollout.depth == 0:
+            return
+        latent_replay.add_batch(rollout.latents, rollout.actions, rollout.rewards, rollout.next_latents)
+        self.count_imagined(rollout.depth)
+
+    # -- observing (Alg. 2 lines 21-25) ----------------------------------------------------------
+    def learn(
+        self, node: int, phi: torch.Tensor, action: np.ndarray, reward: float, next_phi: torch.Tensor,
+        terminated: bool,
+    ) -> float:
+        """Lines 22 and 25: the Eq. 8 error of M_n, R_n before their update, LP of n, one Eq. 5 step; returns
+        r_int of the transition (line 22, ``dual.intrinsic_signal``)."""
+        feedback = self.world.learn_transition(node, phi[0], torch.as_tensor(action, dtype=torch.float32),
+                                               reward, next_phi[0], terminated)
+        self.counters.errors.append(feedback.error)
+        self.counters.naive_errors.append(self._no_change_error(phi, next_phi[0], reward))
+        self.counters.intrinsic.append(feedback.intrinsic_reward)
+        return feedback.intrinsic_reward
+
+    def _no_change_error(self, phi: torch.Tensor, next_phi: torch.Tensor, reward: float) -> float:
+        """Eq. 8 error of predicting "nothing changes" (φ̂′ = φ_t, r̂ = 0): the scale ``dual/model_error`` is
+        read against, since the encoder's latent scale grows by about 100× during training."""
+        bank = self.world.bank
+        error = bank.errors(phi, torch.zeros(1), next_phi.reshape(1, -1), torch.tensor([float(reward)]))
+        return float(error[0])
+
+    def refit_due(self, steps: int) -> bool:
+        """``dual.refit_every`` (not in the paper): whether the local models refit after real step ``steps``."""
+        every = self.config.refit_every
+        return bool(every) and steps % every == 0
+
+    def refit(self, batch: PixelBatch, latents: torch.Tensor) -> None:
+        """Refit the local models to the current encoder's latents.
+
+        The encoder keeps training (Eq. 4), so the latents a node's model learned from drift away from what
+        f_ω now produces. Every ``refit_every`` real steps, ``refit_batch`` replayed real transitions
+        (``batch``), re-encoded with the current encoder (``latents``: φ of obs, then of next obs), each take
+        one Eq. 5 step of their nearest node.
+        """
+        count = batch.obs.shape[0]
+        errors = self.world.refit(latents[:count], batch.action, batch.reward_ext, latents[count:],
+                                  batch.terminated)
+        self.counters.refit_errors.append(float(errors.mean()))
+
+    # -- diagnostics and persistence -------------------------------------------------------------
+    def diagnostics(self) -> dict[str, float]:
+        """The episode's ``dual/…`` diagnostics (module docstring); resets the counters."""
+        c = self.counters
+        out = {
+            "dual/model_error": mean_or_nan(c.errors),
+            "dual/no_change_error": mean_or_nan(c.naive_errors),
+            "dual/mb_decisions": float(len(c.horizons)),
+            "dual/mf_decisions": float(c.mf_decisions),
+            "dual/horizon": mean_or_nan(c.horizons),
+            "dual/itm_nodes": float(self.world.num_nodes),
+            "dual/imagined": float(c.imagined),
+            "dual/intrinsic_reward": mean_or_nan(c.intrinsic),
+            "dual/plan_loss_drop": mean_or_nan(c.plan_drops),
+            "dual/plan_action_shift": mean_or_nan(c.action_shifts),
+        }
+        if self.config.refit_every:
+            out["dual/refit_error"] = mean_or_nan(c.refit_errors)
+        self.counters = EpisodeCounters()
+        return out
+
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            "world": self.world.state_dict(),
+            "total_imagined": self.total_imagined,
+            "total_mb_decisions": self.total_mb_decisions,
+            "total_mf_decisions": self.total_mf_decisions,
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.world.load_state_dict(state["world"])
+        self.total_imagined = int(state["total_imagined"])
+        self.total_mb_decisions = int(state["total_mb_decisions"])
+        self.total_mf_decisions = int(state["total_mf_decisions"])

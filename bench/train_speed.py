@@ -35,7 +35,7 @@ from core.modelfree.agent import Transition
 from core.runs.methods import make_agent
 from core.runs.trainer import make_env
 
-METHODS = ("ddpg", "cacla", "sb3-ddpg")
+METHODS = ("ddpg", "cacla", "td3", "sac", "sb3-ddpg", "sb3-td3", "sb3-sac")
 """The model-free methods and the SB3 reference; every method in ``core.runs.methods`` is accepted too."""
 
 
@@ -88,19 +88,20 @@ def _ours(
 
 
 def _sb3(
-    batch: int | None, buffer: int, warmup: int, steps: int, seed: int, env_id: str | None = None
+    algo: str, batch: int | None, buffer: int, warmup: int, steps: int, seed: int, env_id: str | None = None
 ) -> tuple[float, int]:
+    """SB3's ``algo`` (ddpg, td3, sac) with our encoder and head sizes as its networks."""
     try:
-        from stable_baselines3 import DDPG
+        import stable_baselines3
         from stable_baselines3.common.callbacks import BaseCallback
         from stable_baselines3.common.noise import NormalActionNoise
         from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
     except ImportError as exc:  # the bench extra is not installed
-        raise ValueError("sb3-ddpg needs stable-baselines3: pip install -e '.[bench]'") from exc
+        raise ValueError(f"sb3-{algo} needs stable-baselines3: pip install -e '.[bench]'") from exc
 
-    from core.modelfree.networks import Encoder, make_encoder
+    from core.modelfree.networks import Encoder, head_sizes, make_encoder
 
-    config = _config("ddpg", batch, buffer, env_id)
+    config = _config(algo, batch, buffer, env_id)
     adapted = make_env(config)
     spec = adapted.spec
 
@@ -109,8 +110,9 @@ def _sb3(
         as they are, which our vector encoder scales)."""
 
         def __init__(self, observation_space: Any) -> None:
-            super().__init__(observation_space, features_dim=config.net.latent_dim)
-            self.encoder = make_encoder(config.net, spec)
+            encoder = make_encoder(config.net, spec, algo)
+            super().__init__(observation_space, features_dim=encoder.latent_dim)
+            self.encoder = encoder
 
         def forward(self, observations: torch.Tensor) -> torch.Tensor:
             if isinstance(self.encoder, Encoder):
@@ -129,7 +131,9 @@ def _sb3(
 
     env = adapted.env
     action_dim = spec.action_dim
-    model = DDPG(
+    actor_hidden, critic_hidden = head_sizes(config.net, spec)
+    noise = NormalActionNoise(np.zeros(action_dim), np.full(action_dim, config.agent.noise_std))
+    model = getattr(stable_baselines3, algo.upper())(
         "CnnPolicy" if spec.obs_kind == "image" else "MlpPolicy",
         env,
         learning_rate=config.agent.critic_lr,
@@ -140,10 +144,10 @@ def _sb3(
         gamma=config.agent.gamma,
         train_freq=1,
         gradient_steps=1,
-        action_noise=NormalActionNoise(np.zeros(action_dim), np.full(action_dim, config.agent.noise_std)),
+        **({} if algo == "sac" else {"action_noise": noise}),
         policy_kwargs={
             "features_extractor_class": SameEncoder,
-            "net_arch": {"pi": [config.net.actor_hidden], "qf": [config.net.critic_hidden]},
+            "net_arch": {"pi": list(actor_hidden), "qf": list(critic_hidden)},
             "normalize_images": spec.obs_kind == "image",
         },
         seed=seed,
@@ -183,8 +187,8 @@ def measure(
     batches: dict[str, int] = {}
     for _ in range(rounds):
         for name in algos:
-            if name == "sb3-ddpg":
-                ms, used_batch = _sb3(batch, buffer, warmup, steps, seed, env)
+            if name.startswith("sb3-"):
+                ms, used_batch = _sb3(name.removeprefix("sb3-"), batch, buffer, warmup, steps, seed, env)
             else:
                 ms, used_batch = _ours(name, batch, buffer, warmup, steps, seed, env)
             samples[name].append(ms)

@@ -1,13 +1,16 @@
 """Typed run configuration: one place for every hyper-parameter default, with named profiles.
 
 A run is fully described by a :class:`Config` (sections ``run``, ``env``, ``net``, ``agent``, ``dual``).
-Defaults live only here. Two profiles exist (see ``docs/config.md`` for the value-by-value sources):
+Defaults live only here. Three profiles exist (see ``docs/config.md`` for the value-by-value sources):
 
 * ``default`` — tuned to learn fast per wall-clock second on a 2-core laptop CPU (strided encoder,
   per-step updates, annealed exploration noise, τ = 0.005).
 * ``paper``  — every value stated in Section 4.1.1 of the paper; where the text is silent or
   ambiguous, the authors' released code (stride-1 16→8→4 convolutions, one update per episode with
   5 critic passes / 15 CACLA passes over a 256-sample minibatch, N(0, 1) noise, τ = 1e-6).
+
+* ``vector`` — the default for tasks with vector observations: the textbook networks (no learned encoder,
+  MLP actor and critics) and settings under which every learner learns Pendulum-v1 in 20k steps.
 
 ``load_config(profile, overrides, file)`` applies, in order: the profile, then a YAML/JSON file, then
 ``key=value`` overrides. Unknown keys raise :class:`ConfigError` naming the key; values are coerced to
@@ -453,9 +456,29 @@ PAPER_DUAL_OVERRIDES: tuple[str, ...] = tuple(
 """``dual.<field>=<value>`` for every field where the paper's dual section differs from the default's: a
 default-profile run with these overrides has the literal dual reading and the default's everything else."""
 
+def _vector_profile() -> Config:
+    """The default profile for tasks with vector observations (``dualsys train --profile auto`` picks it for
+    them): the textbook networks and settings under which every learner learns Pendulum-v1 in 20k steps
+    (docs/model-free.md, "Learners"). Only the ``net`` and ``agent`` keys below differ from ``default``:
+    no learned encoder, 256-256 MLPs (SB3's SAC), batch 256, one learning rate of 1e-3 (RL Zoo's for DDPG, TD3
+    and SAC on Pendulum), 1000 uniform warm-up steps and a constant exploration noise of 0.1 (the TD3
+    paper's)."""
+    config = Config()
+    config.net.encoder = "none"
+    config.net.mlp_hidden = (256, 256)
+    agent = config.agent
+    agent.batch_size = 256
+    agent.critic_lr = agent.actor_lr = 1e-3
+    agent.learning_starts = 1000
+    agent.warmup = "uniform"
+    agent.noise_std = agent.noise_final_std = 0.1
+    return config
+
+
 PROFILES: dict[str, typing.Callable[[], Config]] = {
     "default": Config,
     "paper": _paper_profile,
+    "vector": _vector_profile,
 }
 """Named profiles: a zero-argument factory per name (each call returns a fresh Config)."""
 
@@ -670,7 +693,8 @@ _POSITIVE_OR_NONE: tuple[str, ...] = (
 """Keys that are > 0 or None (`check_config`; the service's overrides schema reads the same tuple)."""
 
 _POSITIVE: tuple[str, ...] = (
-    "agent.critic_lr", "agent.actor_lr", "agent.rnd_lr", "agent.alpha_init", "agent.noise_theta", "dual.model_lr", "dual.e_max", "dual.plan_lr",
+    "agent.critic_lr", "agent.actor_lr", "agent.rnd_lr", "agent.alpha_init", "agent.noise_theta",
+    "dual.model_lr", "dual.e_max", "dual.plan_lr",
     "dual.imagination_max_ratio",
 )
 """Real-valued keys that must be > 0."""

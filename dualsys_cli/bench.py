@@ -52,8 +52,8 @@ def bench_modelbank(
 def bench_train(
     algos: str = typer.Option(
         "ddpg,sb3-ddpg",
-        help="Comma-separated methods: sb3-ddpg or any --algo "
-        "(ddpg, cacla, im2c, i2a, mve, cmc, la-imagination).",
+        help="Comma-separated methods: any --algo "
+        "(ddpg, cacla, td3, sac, im2c, i2a, mve, cmc, la-imagination), sb3-ddpg, sb3-td3, sb3-sac.",
     ),
     batch: int = typer.Option(None, min=1, help="Minibatch size (default: the default profile's)."),
     steps: int = typer.Option(300, min=10, help="Timed training steps per method and round."),

@@ -63,7 +63,7 @@ def submit_train(
     minutes: float = typer.Option(None, "--minutes", min=0.0),
     profile: str = typer.Option("default", "--profile", help="default | paper."),
     overrides: list[str] = typer.Option(None, "--set", help="section.key=value (repeatable)."),
-    ac: str = typer.Option(None, "--ac", help="ddpg | cacla."),
+    ac: str = typer.Option(None, "--ac", help="The learner: ddpg | cacla | td3 | sac."),
     url: str = URL,
     as_json: bool = JSON,
 ) -> None:

@@ -46,6 +46,22 @@ def _run_name(config: Any) -> str:
     return config.env.id.replace("/", "-").replace(":", "-")
 
 
+def _observation_kind(env_id: str, config: Any) -> str:
+    """Whether ``env_id`` gives images or vectors (what ``--profile auto`` picks by): the env is built once."""
+    import dataclasses
+
+    from core.config import NICO_GRASP_ID
+    from core.envs.gym_env import make_env
+
+    if env_id == NICO_GRASP_ID:
+        return "image"
+    adapted = make_env(dataclasses.replace(config.env, id=env_id))
+    try:
+        return adapted.spec.obs_kind
+    finally:
+        adapted.env.close()
+
+
 def build_config(
     *,
     profile: str,
@@ -77,7 +93,11 @@ def build_config(
                 raise ConfigError(f"override {item!r} is not of the form section.key=value")
             set_value(config, key.strip(), raw.strip())
     else:
-        config = load_config(profile, overrides, config_file)
+        config = load_config("default" if profile == "auto" else profile, overrides, config_file)
+    if profile == "auto" and resume is None:
+        kind = _observation_kind(env if env is not None else config.env.id, config)
+        if kind == "vector":
+            config = load_config("vector", overrides, config_file)
     if algo is not None:
         config.run.algo = algo
     if ac is not None:
@@ -163,7 +183,10 @@ def _summary_table(summary: dict[str, Any]) -> Table:
 
 
 def train_command(
-    algo: str = typer.Option(None, "--algo", help="Method: ddpg, cacla, or any registered method."),
+    algo: str = typer.Option(
+        None, "--algo", help="Method: ddpg, cacla, td3, sac (model-free), im2c, i2a, cmc, la-imagination, "
+        "mve, rnd, or any registered method."
+    ),
     env: str = typer.Option(
         None, "--env", help="Gymnasium id (default dualsys/NicoGrasp-v0; `dualsys env list` shows the ids)."
     ),
@@ -175,11 +198,16 @@ def train_command(
     out: Path = typer.Option(
         None, "--out", help="Run directory (default: ./dualsys-runs/<algo>-<reward>-<time>)."
     ),
-    profile: str = typer.Option("default", "--profile", help="Config profile: default | paper."),
+    profile: str = typer.Option(
+        "auto", "--profile",
+        help="Config profile: default | paper | vector; auto: vector for a task with vector observations "
+        "(the textbook networks), default otherwise.",
+    ),
     overrides: list[str] = typer.Option(None, "--set", help="Override a config value: section.key=value."),
     config_file: Path = typer.Option(None, "--config", help="YAML/JSON file of config sections."),
     resume: Path = typer.Option(None, "--resume", help="Continue the run in this directory."),
-    ac: str = typer.Option(None, "--ac", help="Actor update for dual-system methods: ddpg | cacla."),
+    ac: str = typer.Option(None, "--ac", help="The learner under a dual-system method (or rnd): "
+                            "ddpg | cacla | td3 | sac."),
     tensorboard: bool = typer.Option(
         None,
         "--tensorboard/--no-tensorboard",

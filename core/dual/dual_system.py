@@ -2,10 +2,10 @@
 ``baselines.py``): regions and local world models, the meta-controller, r_int, the local models' refit, the
 per-episode diagnostics and what a checkpoint keeps of them.
 
-An agent *holds* a :class:`DualSystem` beside its learner and replay and calls it in its algorithm box's order:
-:meth:`DualSystem.locate` (Alg. 2 lines 10-11), :meth:`DualSystem.decide` (12-19), :meth:`DualSystem.learn`
-(22 and 25, returning r_int for line 23), :meth:`DualSystem.refit_due` / :meth:`DualSystem.refit` (the refit
-repair), :meth:`DualSystem.diagnostics` at each episode's end.
+An agent *holds* a :class:`DualSystem` beside its learner and replay and calls it in its algorithm box's
+order: :meth:`DualSystem.locate` (Alg. 2 lines 10-11), :meth:`DualSystem.decide` (12-19),
+:meth:`DualSystem.learn` (22 and 25, returning r_int for line 23), :meth:`DualSystem.refit_due` /
+:meth:`DualSystem.refit` (the refit repair), :meth:`DualSystem.diagnostics` at each episode's end.
 
 Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_error`` (mean Eq. 8 error
 of the real transitions), ``no_change_error`` (the same error of the predictor φ̂′ = φ_t, r̂ = 0: the
@@ -140,7 +140,8 @@ class DualSystem:
         return float(error[0])
 
     def refit_due(self, steps: int) -> bool:
-        """``dual.refit_every`` (not in the paper): whether the local models refit after real step ``steps``."""
+        """``dual.refit_every`` (not in the paper): whether the local models refit after real step ``steps``.
+        """
         every = self.config.refit_every
         return bool(every) and steps % every == 0
 

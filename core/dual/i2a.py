@@ -1,20 +1,20 @@
 """I2A, Integrated Imagination-Arbitration (Algorithm 3), as an agent of the shared trainer.
 
-IM2C (``core.dual.im2c``) plus imagination: the learner also learns from imagined latent transitions. The agent
-holds a learner (``agent.ac``), the pixel replay B_pixel, the latent replay B_latent and the dual system. One
-training step, in the box's order:
+IM2C (``core.dual.im2c``) plus imagination: the learner also learns from imagined latent transitions. The
+agent holds a learner (``agent.ac``), the pixel replay B_pixel, the latent replay B_latent and the dual
+system. One training step, in the box's order:
 
-- ``act``: φ_t = f(s_t) (line 9); ITM update, node n (10-11); the meta-controller's decision (12-19, the model-
-  based branch rolls out with the adaptive depth of Alg. 1 and, in the paper's reading, stores the rollout's
-  H imagined transitions in B_latent, line 17); the learner's exploration around the action (20).
+- ``act``: φ_t = f(s_t) (line 9); ITM update, node n (10-11); the meta-controller's decision (12-19,
+  the model-based branch rolls out with the adaptive depth of Alg. 1 and, in the paper's reading, stores the
+  rollout's H imagined transitions in B_latent, line 17); the learner's exploration around the action (20).
 - ``observe``: φ_{t+1}, r_int, r = r_ext + r_int into B_pixel, one Eq. 5 step of M_n, R_n (21-25 of Alg. 2).
 - ``update_after_step`` / ``update_after_episode``: lines 34-37, the learner's
   :meth:`~core.modelfree.learners.base.Learner.update_with_imagination` on a pixel minibatch and a latent one.
 
-Where the latent minibatch comes from is ``dual.imagination_source``: ``act_time`` (the paper: B_latent, filled
-at line 17) or ``learn_time`` (the repair: rollouts from the pixel minibatch's states, encoded by the current
-encoder, made at each update and never stored; ``core.dual.imagination.imagine``). DDPG+LA-Imagination is this
-agent with model-free acting and LA-Imagination's rollouts (``core.dual.baselines``).
+Where the latent minibatch comes from is ``dual.imagination_source``: ``act_time`` (the paper: B_latent,
+filled at line 17) or ``learn_time`` (the repair: rollouts from the pixel minibatch's states, encoded by the
+current encoder, made at each update and never stored; ``core.dual.imagination.imagine``). DDPG+LA-Imagination
+is this agent with model-free acting and LA-Imagination's rollouts (``core.dual.baselines``).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """IM2C, the Intrinsically Motivated Meta-Controller (Algorithm 2), as an agent of the shared trainer.
 
 The agent holds its parts: a learner (``agent.ac``: DDPG by default, as the paper; CACLA, TD3, SAC), the pixel
-replay B, and the dual system (regions, local world models M_n and R_n, learning progress, the meta-controller;
-``core.dual.dual_system``). One training step, in the box's order, over the trainer's hooks:
+replay B, and the dual system (regions, local world models M_n and R_n, learning progress, the
+meta-controller; ``core.dual.dual_system``). One training step, in the box's order, over the trainer's hooks:
 
 - ``act``: φ_t = f(s_t) (line 9); ITM update, node n (10-11); model-based action by gradient MPC over an
   adaptive-depth rollout when n is reliable, else μ(φ_t) (12-19); the learner's exploration around it (20).
@@ -42,7 +42,8 @@ class IM2C(LearnerAgent):
         fixed_horizon: int | None = None,
     ) -> None:
         super().__init__(config, spec, rng)  # the learner: lines 1-3
-        self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)  # 4
+        agent = config.agent
+        self.replay = PixelReplay(agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)  # 4
         self.dual = DualSystem(config.dual, self.learner.latent_dim, spec.action_dim, rng,  # lines 5-6
                                regions=regions, fixed_horizon=fixed_horizon)
         self._phi: torch.Tensor | None = None

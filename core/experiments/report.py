@@ -59,7 +59,7 @@ BOOTSTRAPPED = (
 DIAGNOSTICS = ("first_success", "train_length")
 """Reported with IQM and CI, but neither better when higher nor compared with the baseline."""
 
-MODEL_FREE = ("ddpg", "cacla")
+MODEL_FREE = ("ddpg", "cacla", "td3", "sac")
 CURVE_POINTS = 200
 """Points of the common env-step grid the learning curves are interpolated to."""
 

@@ -21,7 +21,7 @@ An experiment file is YAML::
         algo: ddpg                  # a method of core.runs.methods (or of a registered cell runner)
       - label: DDPG+IM2C
         algo: im2c
-        ac: ddpg                    # actor update of a dual-system method: ddpg | cacla
+        ac: ddpg                    # the learner of a dual-system method: ddpg | cacla | td3 | sac
         overrides: {dual.intrinsic_scale: 0.1}
 
 ``overrides`` take the same keys as ``dualsys train --set``. The keys the experiment sets per cell
@@ -51,7 +51,7 @@ REWARDS: tuple[str, ...] = ("dense", "sparse")
 TASK_REWARD = "task"
 """The one reward "mode" of an env other than NicoGrasp: its own reward (a cell folder's reward part)."""
 
-ACTOR_RULES: tuple[str, ...] = ("ddpg", "cacla")
+ACTOR_RULES: tuple[str, ...] = ("ddpg", "cacla", "td3", "sac")
 """Actor updates a method may name with ``ac`` (``agent.ac``)."""
 
 DEFAULT_SMOOTHING: dict[str, int] = {"dense": 250, "sparse": 375, "task": 10}

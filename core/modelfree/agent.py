@@ -97,7 +97,9 @@ class UpdateSchedule:
     def __init__(self, agent: AgentConfig) -> None:
         self.config = agent
 
-    def after_step(self, steps: int, replay_size: int, minibatch: Callable[[], dict[str, float]]) -> dict[str, float]:
+    def after_step(
+        self, steps: int, replay_size: int, minibatch: Callable[[], dict[str, float]]
+    ) -> dict[str, float]:
         if self.config.update_schedule != "per_step":
             return {}
         return self._run(self.config.updates_per_step, steps, replay_size, minibatch)
@@ -115,10 +117,12 @@ class UpdateSchedule:
         if steps < self.config.learning_starts or replay_size == 0:
             return {}
         totals: dict[str, float] = {}
+        counts: dict[str, int] = {}
         for _ in range(count):
             for key, value in minibatch().items():
                 totals[key] = totals.get(key, 0.0) + value
-        return {key: value / count for key, value in totals.items()}
+                counts[key] = counts.get(key, 0) + 1
+        return {key: value / counts[key] for key, value in totals.items()}
 
 
 def to_device(batch: B, device: torch.device) -> B:
@@ -130,10 +134,10 @@ def to_device(batch: B, device: torch.device) -> B:
 
 class LearnerAgent:
     """What every agent of this package and of ``core.dual`` holds and does the same way: a learner
-    (``agent.ac``: DDPG, CACLA, TD3, SAC; ``core.modelfree.learners``), a pixel replay, the update schedule, the
-    step counters and the run's generator; encoding one observation, the greedy policy, the schedule's hooks
-    and persistence. The method itself (``act``, ``observe``, ``episode_diagnostics``) is each agent's own:
-    ``ModelFreeAgent`` below; ``core.dual.im2c.IM2C``, ``core.dual.i2a.I2A``, ``core.dual.baselines``."""
+    (``agent.ac``: DDPG, CACLA, TD3, SAC; ``core.modelfree.learners``), a pixel replay, the update schedule,
+    the step counters and the run's generator; encoding one observation, the greedy policy, the schedule's
+    hooks and persistence. The method itself (``act``, ``observe``, ``episode_diagnostics``) is each agent's
+    own: ``ModelFreeAgent`` below; ``core.dual.im2c.IM2C``, ``core.dual.i2a.I2A``, ``core.dual.baselines``."""
 
     replay: PixelReplay
 

@@ -28,6 +28,7 @@ answers in the env's units.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import torch
@@ -123,7 +124,7 @@ class Decoder(nn.Module):
 def mlp(sizes: list[int], activation: type[nn.Module] = nn.ReLU) -> nn.Sequential:
     """Linear layers of ``sizes`` with ``activation`` between them and none after the last."""
     layers: list[nn.Module] = []
-    for index, (width, out) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
+    for index, (width, out) in enumerate(itertools.pairwise(sizes)):
         layers.append(nn.Linear(width, out))
         if index < len(sizes) - 2:
             layers.append(activation())
@@ -206,8 +207,8 @@ class VectorEncoder(nn.Module):
 
 
 class ScaledObservation(VectorEncoder):
-    """No learned encoder (``net.encoder = none``): φ is the observation scaled to [-1, 1] by its finite bounds,
-    so actor and critic are the textbook MLPs on the observation (SB3's MlpPolicy, CleanRL)."""
+    """No learned encoder (``net.encoder = none``): φ is the observation scaled to [-1, 1] by its finite
+    bounds, so actor and critic are the textbook MLPs on the observation (SB3's MlpPolicy, CleanRL)."""
 
     def __init__(
         self,

@@ -48,7 +48,9 @@ class OrnsteinUhlenbeckNoise(GaussianNoise):
     DT = 1e-2
     """SB3's default time step."""
 
-    def __init__(self, std: float, final_std: float, anneal_steps: int, theta: float, action_dim: int) -> None:
+    def __init__(
+        self, std: float, final_std: float, anneal_steps: int, theta: float, action_dim: int
+    ) -> None:
         super().__init__(std, final_std, anneal_steps)
         self.theta = theta
         self.x = np.zeros(action_dim)
@@ -58,7 +60,8 @@ class OrnsteinUhlenbeckNoise(GaussianNoise):
 
     def perturb(self, action: np.ndarray, step: int, rng: np.random.Generator) -> np.ndarray:
         sigma = self.std_at(step)
-        self.x = self.x - self.theta * self.x * self.DT + sigma * np.sqrt(self.DT) * rng.normal(size=self.x.shape)
+        step = rng.normal(size=self.x.shape)
+        self.x = self.x - self.theta * self.x * self.DT + sigma * np.sqrt(self.DT) * step
         return np.clip(action + self.x, -1.0, 1.0).astype(np.float32)
 
     def state(self) -> list[float]:
@@ -77,7 +80,9 @@ def make_noise(agent: AgentConfig, action_dim: int) -> GaussianNoise:
     return GaussianNoise(agent.noise_std, agent.noise_final_std, agent.noise_anneal_steps)
 
 
-def uniform_warmup(agent: AgentConfig, step: int, action_dim: int, rng: np.random.Generator) -> np.ndarray | None:
+def uniform_warmup(
+    agent: AgentConfig, step: int, action_dim: int, rng: np.random.Generator
+) -> np.ndarray | None:
     """A uniform random action before ``learning_starts`` when ``agent.warmup = uniform`` (SB3), else None."""
     if agent.warmup != "uniform" or step >= agent.learning_starts:
         return None

@@ -4,8 +4,8 @@
 (the name sets ``agent.ac``); ``rnd`` is the model-free agent with random network distillation's exploration
 bonus (``core.modelfree.rnd``), the intrinsic-motivation peer.
 The dual-system methods (``core.dual.im2c``, ``core.dual.i2a``, ``core.dual.baselines``: im2c, i2a, cmc,
-la-imagination, mve) and rnd hold the learner ``agent.ac`` names (``--ac``). The run package lists the methods it knows here, from above; a user's own method joins
-with :func:`register_algo` before training.
+la-imagination, mve) and rnd hold the learner ``agent.ac`` names (``--ac``). The run package lists the methods
+it knows here, from above; a user's own method joins with :func:`register_algo` before training.
 """
 
 from __future__ import annotations

@@ -38,6 +38,7 @@ counters, episode records, evaluation/checkpoint/budget schedules, summary.json)
 from __future__ import annotations
 
 import json
+import math
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -212,6 +213,8 @@ class _Trainer(RunBookkeeping):
     def _train_episode(self, agent: Agent, env: Any, reset_seed: int | None) -> dict[str, Any] | None:
         obs, _ = env.reset(seed=reset_seed)
         agent.begin_episode(obs)
+        start_value = agent.start_value(obs) if hasattr(agent, "start_value") else math.nan
+        discounted, discount = 0.0, 1.0
         episode_return, length, success, toppled = 0.0, 0, False, False
         losses: list[dict[str, float]] = []
         step_diagnostics: list[dict[str, float]] = []
@@ -226,6 +229,8 @@ class _Trainer(RunBookkeeping):
             self.global_step += 1
             length += 1
             episode_return += float(reward)
+            discounted += discount * float(reward)
+            discount *= self.config.agent.gamma
             step_losses = agent.update_after_step()
             if step_losses:
                 losses.append(step_losses)
@@ -241,6 +246,9 @@ class _Trainer(RunBookkeeping):
         record.update(mean_dicts(losses))
         record.update(mean_dicts(step_diagnostics))
         record.update(agent.episode_diagnostics())
+        # Overestimation in sight: the critic's value of the start state beside the discounted return earned.
+        record["charts/start_value"] = start_value
+        record["charts/discounted_return"] = discounted
         return record
 
     def _evaluate(self, agent: Agent, eval_env: Any, wall_s: float) -> dict[str, float]:

@@ -25,7 +25,7 @@ DUAL_KEYS = ("dual/model_error", "dual/mb_decisions", "dual/mf_decisions", "dual
              "dual/imagined", "dual/intrinsic_reward")
 
 
-@pytest.mark.parametrize("ac", ["ddpg", "cacla"])
+@pytest.mark.parametrize("ac", ["ddpg", "cacla", "td3", "sac"])
 @pytest.mark.parametrize("algo", ["im2c", "i2a", "cmc", "la-imagination", "mve"])
 def test_algo_trains_tiny_run_end_to_end(tmp_path, algo: str, ac: str) -> None:
     config = load_config("default", [f"run.algo={algo}", f"agent.ac={ac}", *TINY])

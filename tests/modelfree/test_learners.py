@@ -1,10 +1,10 @@
-"""The paper's learners: Eq. 1-4 updates, the CACLA δ > 0 rule, DDPG leaving the critic alone, τ-exact target updates."""
+"""The paper's learners: Eq. 1-4 updates, the CACLA δ > 0 rule, DDPG leaving the critic alone, τ-exact target
+updates."""
 
 from __future__ import annotations
 
 import copy
 
-import numpy as np
 import pytest
 import torch
 

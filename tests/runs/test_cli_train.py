@@ -79,3 +79,17 @@ def test_tiny_run_prints_one_json_line_and_resumes(tmp_path):
     assert again.exit_code == 0, again.output
     assert json.loads(again.stdout)["episodes"] == 5
     assert invoke("--out", str(out), "--episodes", "1").exit_code == 2  # existing run, no --resume
+
+
+def test_profile_auto_picks_the_vector_profile_for_vector_tasks_only(tmp_path):
+    from dualsys_cli.train import build_config
+
+    common = dict(config_file=None, resume=None, algo="sac", ac=None, reward=None, seed=None, episodes=None,
+                  steps=None, minutes=None)
+    vector = build_config(profile="auto", overrides=["agent.batch_size=32"], env="Pendulum-v1", **common)
+    assert vector.net.encoder == "none" and vector.agent.warmup == "uniform"
+    assert vector.agent.batch_size == 32  # --set still wins over the profile
+    image = build_config(profile="auto", overrides=[], env=None, **common)
+    assert image.net.encoder == "learned" and image.agent.warmup == "policy"
+    explicit = build_config(profile="default", overrides=[], env="Pendulum-v1", **common)
+    assert explicit.net.encoder == "learned"

@@ -130,3 +130,11 @@ def test_range_checks():
     with pytest.raises(ConfigError, match="budget"):
         check_config(load_config("default", ["run.episodes=none"]))
     check_config(load_config("paper"))
+
+
+def test_the_vector_profile_differs_from_default_only_in_net_and_agent():
+    default, vector = load_config("default").to_dict(), load_config("vector").to_dict()
+    assert vector["dual"] == default["dual"] and vector["run"] == default["run"]
+    assert vector["env"] == default["env"]
+    assert vector["net"]["encoder"] == "none" and vector["net"]["mlp_hidden"] == [256, 256]
+    assert vector["agent"]["critic_lr"] == vector["agent"]["actor_lr"] == 1e-3

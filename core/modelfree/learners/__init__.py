@@ -1,7 +1,8 @@
 """The learners every agent holds (``agent.ac``): DDPG and CACLA (the paper's, ``ddpg.py``), TD3, SAC.
 
-``make_learner(net, agent, spec)`` builds the one ``agent.ac`` names. What they share — the critic-autoencoder,
-the target networks, the pixel update and the imagination update of Algorithm 3 — is ``base.py``.
+``make_learner(net, agent, spec)`` builds the one ``agent.ac`` names. What they share — the
+critic-autoencoder, the target networks, the pixel update and the imagination update of Algorithm 3 — is
+``base.py``.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ three methods each learner file writes out in full (``ddpg.py``, ``td3.py``, ``s
 
 * ``bootstrap(φ′)`` — the value the TD target bootstraps from (DDPG: Q′(φ′, μ′(φ′)); TD3: the smaller of two
   target critics at a smoothed target action; SAC: the soft value);
-* ``policy_step(φ, a, y)`` — the actor's (and, for TD3/SAC, the delayed or temperature) step after the critic's;
+* ``policy_step(φ, a, y)`` — the actor's step after the critic's (TD3: delayed; SAC: with the temperature's);
 * ``explore(a, φ, step, rng)`` — the executed action around a chosen one (noise, or SAC's sampling).
 
 The two updates:
@@ -106,7 +106,7 @@ def soft_update(target: nn.Module, online: nn.Module, tau: float) -> None:
 
 
 def td_loss(q: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    """Mean squared TD error of Eq. 1: ``q`` ``[N]`` (one critic), or ``[2, N]`` (twins: ½ Σ_i mean_i, SB3)."""
+    """Mean squared TD error of Eq. 1: ``q`` ``[N]`` (one critic) or ``[2, N]`` (twins: ½ Σ_i mean_i, SB3)."""
     if q.dim() == 1:
         return (target - q).pow(2).mean()
     return 0.5 * (target - q).pow(2).mean(dim=1).sum()
@@ -184,7 +184,9 @@ class Learner(nn.Module):
         """V(φ′) of the TD target; each learner writes its own."""
         raise NotImplementedError
 
-    def policy_step(self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor) -> ActorUpdateResult:
+    def policy_step(
+        self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor
+    ) -> ActorUpdateResult:
         """The actor's step (and target updates) after the critic's; each learner writes its own."""
         raise NotImplementedError
 
@@ -205,7 +207,7 @@ class Learner(nn.Module):
         return self.target_actor(latent)
 
     def update(self, batch: PixelBatch) -> dict[str, float]:
-        """One minibatch update from B_pixel: Eq. 4 (``critic_passes``), the policy step (module docstring)."""
+        """One minibatch update from B_pixel: Eq. 4 (``critic_passes``), then the policy step (module doc)."""
         cfg = self.agent_config
         self.updates += 1
         obs = self.encoder.prepare(batch.obs)
@@ -231,7 +233,7 @@ class Learner(nn.Module):
         return {
             "losses/critic": float(q_loss.detach()),
             "losses/rec": float(rec_loss.detach()),
-            "losses/actor": actor.loss,
+            **_actor_loss(actor),
             "losses/td_target_mean": float(target.mean()),
             **_actor_extras(actor),
         }
@@ -241,8 +243,8 @@ class Learner(nn.Module):
     ) -> dict[str, float]:
         """Algorithm 3 lines 34-37 on one pixel and one latent minibatch (``latent`` None: pixel only).
 
-        ``actor_on_imagined`` False: line 36 steps the actor on the pixel minibatch's latents only, so imagined
-        transitions shape the critic but never the policy directly.
+        ``actor_on_imagined`` False: line 36 steps the actor on the pixel minibatch's latents only, so
+        imagined transitions shape the critic but never the policy directly.
         """
         cfg = self.agent_config
         self.updates += 1
@@ -282,13 +284,13 @@ class Learner(nn.Module):
             "losses/critic": float(q_critic.detach()),
             "losses/critic_encoder": float(q_encoder.detach()),
             "losses/rec": float(rec_loss.detach()),
-            "losses/actor": actor.loss,
+            **_actor_loss(actor),
             "losses/td_target_mean": float(y_pixel.mean()),
             **_actor_extras(actor),
         }
 
     def update_targets(self, actor: bool = True) -> None:
-        """τ update of the target encoder, critic and (when ``actor`` and it exists) actor (Alg. 2, line 28)."""
+        """τ update of the target encoder, critic and (``actor``: where it exists) actor (Alg. 2, l. 28)."""
         cfg = self.agent_config
         tau = cfg.tau
         soft_update(self.target_encoder, self.encoder, tau if cfg.encoder_tau is None else cfg.encoder_tau)
@@ -330,8 +332,14 @@ class Learner(nn.Module):
         return None
 
 
+def _actor_loss(actor: ActorUpdateResult) -> dict[str, float]:
+    """The actor's loss, absent when it took no step (TD3 between delayed updates)."""
+    return {} if math.isnan(actor.loss) else {"losses/actor": actor.loss}
+
+
 def _actor_extras(actor: ActorUpdateResult) -> dict[str, float]:
-    out = {} if math.isnan(actor.positive_fraction) else {"losses/cacla_positive_fraction": actor.positive_fraction}
+    fraction = actor.positive_fraction
+    out = {} if math.isnan(fraction) else {"losses/cacla_positive_fraction": fraction}
     if actor.extra:
         out.update(actor.extra)
     return out

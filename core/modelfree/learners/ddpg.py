@@ -1,4 +1,5 @@
-"""The paper's two learners (Section 2.1): DDPG (Eq. 2) and off-policy CACLA (Eq. 3) on the critic-autoencoder.
+"""The paper's two learners (Section 2.1): DDPG (Eq. 2) and off-policy CACLA (Eq. 3), on the
+critic-autoencoder.
 
 Both have one critic Q and a deterministic actor μ with target copies; the target bootstraps from
 Q′(φ′, μ′(φ′)) (Eq. 1); exploration is noise around μ(φ) (``core.modelfree.noise``); after every actor step
@@ -49,7 +50,9 @@ class DDPG(NoiseExploring):
         """Q′(φ′, μ′(φ′)) (Eq. 1)."""
         return self.target_critic(next_latent, self.target_actor(next_latent))
 
-    def policy_step(self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor) -> ActorUpdateResult:
+    def policy_step(
+        self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor
+    ) -> ActorUpdateResult:
         loss = torch.zeros(())
         with frozen(self.critic):
             for _ in range(self.agent_config.ddpg_actor_passes):
@@ -71,7 +74,9 @@ class CACLA(DDPG):
 
     name = "cacla"
 
-    def policy_step(self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor) -> ActorUpdateResult:
+    def policy_step(
+        self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor
+    ) -> ActorUpdateResult:
         positive = self.positive_mask(latent, target)
         fraction = float(positive.float().mean())
         if not bool(positive.any()):

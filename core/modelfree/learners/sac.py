@@ -3,7 +3,8 @@ temperature, on the critic-autoencoder: for images, the SAC-AE recipe (Yarats et
 paper's Eq. 4 critic-autoencoder with a LayerNorm + tanh latent (``net.latent_activation = auto``) and its own
 encoder τ (``agent.encoder_tau``).
 
-* Policy: squashed Gaussian a = tanh(u), u ~ N(m(φ), σ(φ)²) (``SquashedGaussianActor``), on the detached latent.
+* Policy: squashed Gaussian a = tanh(u), u ~ N(m(φ), σ(φ)²) (``SquashedGaussianActor``), on the detached
+  latent.
 * Critic target: y = r + γ (1 − d) [min_i Q′_i(φ′, a′) − α log π(a′ | φ′)], a′ ~ π(· | φ′).
 * Actor: minimise E[α log π(a | φ) − min_i Q_i(φ, a)], a ~ π(· | φ) (reparameterised).
 * Temperature: minimise −log α · (log π(a | φ) + H̄) with H̄ = ``agent.target_entropy`` (None: −dim A), so α
@@ -74,7 +75,9 @@ class SAC(Learner):
     def target_action(self, latent: torch.Tensor) -> torch.Tensor:
         return self.actor(latent)
 
-    def policy_step(self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor) -> ActorUpdateResult:
+    def policy_step(
+        self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor
+    ) -> ActorUpdateResult:
         """The actor's step at the current α, then α's step, then the τ targets."""
         alpha = self.alpha
         with frozen(self.critic):

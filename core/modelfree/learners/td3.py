@@ -32,11 +32,14 @@ class TD3(NoiseExploring):
         """min_i Q′_i(φ′, clip(μ′(φ′) + clip(ε, −c, c), −1, 1)) (repairs 1 and 2)."""
         cfg = self.agent_config
         action = self.target_actor(next_latent)
-        noise = (torch.randn_like(action) * cfg.target_noise).clamp(-cfg.target_noise_clip, cfg.target_noise_clip)
+        clip = cfg.target_noise_clip
+        noise = (torch.randn_like(action) * cfg.target_noise).clamp(-clip, clip)
         smoothed = (action + noise).clamp(-1.0, 1.0)
         return self.target_critic(next_latent, smoothed).min(dim=0).values
 
-    def policy_step(self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor) -> ActorUpdateResult:
+    def policy_step(
+        self, latent: torch.Tensor, action: torch.Tensor, target: torch.Tensor
+    ) -> ActorUpdateResult:
         """Every ``policy_delay``-th update: minimise −Q₁(φ, μ(φ)), then the τ target updates (repair 3)."""
         if self.updates % self.agent_config.policy_delay != 0:
             return ActorUpdateResult(loss=float("nan"))

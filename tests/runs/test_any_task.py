@@ -114,10 +114,11 @@ def test_train_refuses_with_one_line_exit_2_and_no_run_directory(tmp_path, env_i
     assert "Traceback" not in result.output and not out.exists()
 
 
-def test_a_vector_policy_exports_to_onnx_and_is_evaluated_on_its_env(tmp_path):
-    _train(tmp_path, "Pendulum-v1", "ddpg", 200)
+@pytest.mark.parametrize(("algo", "encoder"), [("ddpg", "learned"), ("sac", "none"), ("td3", "none")])
+def test_a_vector_policy_exports_to_onnx_and_is_evaluated_on_its_env(tmp_path, algo, encoder):
+    _train(tmp_path, "Pendulum-v1", algo, 200, f"net.encoder={encoder}")
     onnx_path = tmp_path / "pendulum.onnx"
-    exported = _cli("export", "--policy", str(tmp_path / "ddpg"), "--out", str(onnx_path), "--json")
+    exported = _cli("export", "--policy", str(tmp_path / algo), "--out", str(onnx_path), "--json")
     assert exported.exit_code == 0, exported.output
     report = json.loads(exported.stdout.strip().splitlines()[-1])
     assert report["max_abs_diff"] <= 1e-4 and report["metadata"]["input_dtype"] == "float32"
@@ -126,9 +127,9 @@ def test_a_vector_policy_exports_to_onnx_and_is_evaluated_on_its_env(tmp_path):
     from core.runs.policy import load_policy
 
     obs = np.random.default_rng(0).uniform(-1, 1, (16, 3)).astype(np.float32)
-    expected = load_policy(tmp_path / "ddpg").act(obs)
+    expected = load_policy(tmp_path / algo).act(obs)  # SAC: the deterministic action tanh(mean)
     np.testing.assert_allclose(OnnxPolicy(onnx_path).act(obs), expected, atol=1e-5)
-    for source in (str(tmp_path / "ddpg"), str(onnx_path)):
+    for source in (str(tmp_path / algo), str(onnx_path)):
         evaluated = _cli("eval", "--policy", source, "--trials", "2", "--json")
         assert evaluated.exit_code == 0, evaluated.output
         result = json.loads(evaluated.stdout.strip().splitlines()[-1])

@@ -297,7 +297,7 @@ class ModelBank:
         g_output = weight_col * d_latent * self.latent_scale  # φ̂′ = base + s·output
         g_reward = weight * d_reward
         if self.output_activation == "released":
-            g_output = g_output * out.latent * (1.0 - out.latent)  # σ′ at φ̂′ = σ: released is raw units
+            g_output = g_output * out.output * (1.0 - out.output)
             g_reward = g_reward * (1.0 - out.reward * out.reward)
         g_done = None
         if self.termination:

@@ -43,9 +43,10 @@ Options (see docs/dual-system.md):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Literal
+from dataclasses import dataclass, replace
+from typing import Any, Literal
 
+import numpy as np
 import torch
 
 from core.dual.capacity import grown_capacity
@@ -205,67 +206,32 @@ class ModelBank:
         return out
 
     # ------------------------------------------------------------------ forward
-    def _forward(
-        self, p: dict[str, torch.Tensor], phi: torch.Tensor, action: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
-        """Per-sample forward with per-sample parameters ``p[k]: [B, ...]``; returns (x, h, φ̂, r̂)."""
-        x = torch.cat([self._model_input(phi), action], dim=-1)
-        h = torch.tanh(torch.bmm(x.unsqueeze(1), p["w1"]).squeeze(1) + p["b1"])
-        next_latent = torch.bmm(h.unsqueeze(1), p["wm"]).squeeze(1) + p["bm"]
-        reward = (h * p["wr"].squeeze(-1)).sum(-1) + p["br"].squeeze(-1)
-        if self.output_activation == "released":
-            next_latent = torch.sigmoid(next_latent)
-            reward = torch.tanh(reward)
-        return x, h, self._model_output(phi, next_latent), reward
-
-    def _model_input(self, phi: torch.Tensor) -> torch.Tensor:
-        """(φ − μ) / s (φ itself for the raw latent)."""
-        if self.latent_scale == 1.0 and not bool(self.latent_offset.any()):
-            return phi
-        return (phi - self.latent_offset) / self.latent_scale
-
-    def _model_output(self, phi: torch.Tensor, output: torch.Tensor) -> torch.Tensor:
-        """φ̂′ from the latent head's output: φ + s·output (delta) or μ + s·output (absolute)."""
-        if self.latent_scale != 1.0 or bool(self.latent_offset.any()):
-            output = output * self.latent_scale
-            base = phi if self.target == "delta" else self.latent_offset
-            return base + output
-        return phi + output if self.target == "delta" else output
-
-    def _done_logit(self, p: dict[str, torch.Tensor], h: torch.Tensor) -> torch.Tensor:
-        """The termination head's logit ``[B]`` (zeros without a head)."""
-        if not self.termination:
-            return torch.zeros(h.shape[0])
-        return (h * p["wd"].squeeze(-1)).sum(-1) + p["bd"].squeeze(-1)
+    @property
+    def local_model(self) -> LocalModel:
+        """The nodes' network as a function of their parameters, in the bank's current unit (s, μ)."""
+        return LocalModel(released=self.output_activation == "released", delta=self.target == "delta",
+                          scale=self.latent_scale, offset=self.latent_offset)
 
     def gather(self, node_ids: torch.Tensor) -> dict[str, torch.Tensor]:
         """Parameters of the given nodes, one row per id (a gathered copy)."""
         ids = torch.as_tensor(node_ids, dtype=torch.int64).reshape(-1)
         return self._split(self.theta.index_select(0, ids))
 
-    def forward_with(
-        self, params: dict[str, torch.Tensor], phi: torch.Tensor, action: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor]:
-        """Differentiable forward with already gathered parameters (the planner's autograd reference)."""
-        _, _, next_latent, reward = self._forward(params, phi, action)
-        return next_latent, reward
-
     @torch.no_grad()
     def predict(self, node_ids: torch.Tensor, phi: torch.Tensor, action: torch.Tensor) -> ModelPrediction:
         """M_n(φ, a) and R_n(φ, a) for each (node, sample) pair, one batched op."""
-        phi, action = _as_batch(phi), _as_batch(action)
-        params = self.gather(node_ids)
-        _, h, next_latent, reward = self._forward(params, phi, action)
-        done = torch.sigmoid(self._done_logit(params, h)) if self.termination else torch.zeros_like(reward)
-        return ModelPrediction(next_latent=next_latent, reward=reward, done=done)
+        return self._predict(self.gather(node_ids), _as_batch(phi), _as_batch(action))
 
     @torch.no_grad()
     def predict_rows(self, rows: torch.Tensor, phi: torch.Tensor, action: torch.Tensor) -> ModelPrediction:
         """Like `predict`, with explicit flattened parameter rows ``[B, num_params]`` (e.g. snapshots)."""
-        params = self._split(rows)
-        _, h, next_latent, reward = self._forward(params, _as_batch(phi), _as_batch(action))
-        done = torch.sigmoid(self._done_logit(params, h)) if self.termination else torch.zeros_like(reward)
-        return ModelPrediction(next_latent=next_latent, reward=reward, done=done)
+        return self._predict(self._split(rows), _as_batch(phi), _as_batch(action))
+
+    def _predict(self, params: dict[str, torch.Tensor], phi: torch.Tensor, action: torch.Tensor
+                 ) -> ModelPrediction:
+        out = self.local_model.forward(params, phi, action)
+        done = torch.sigmoid(out.done_logit) if self.termination else torch.zeros_like(out.reward)
+        return ModelPrediction(next_latent=out.latent, reward=out.reward, done=done)
 
     # ------------------------------------------------------------------ Eq. 8 errors
     def errors(
@@ -276,8 +242,9 @@ class ModelBank:
         target_reward: torch.Tensor,
     ) -> torch.Tensor:
         """Per-sample prediction error e^prd (Eq. 8): squared norms or unsquared L2 norms."""
-        d_latent = next_latent - target_latent
-        d_reward = reward - target_reward
+        return self._error(next_latent - target_latent, reward - target_reward)
+
+    def _error(self, d_latent: torch.Tensor, d_reward: torch.Tensor) -> torch.Tensor:
         if self.error_norm == "squared":
             return (d_latent * d_latent).sum(-1) + d_reward * d_reward
         return d_latent.norm(dim=-1) + d_reward.abs()
@@ -296,10 +263,12 @@ class ModelBank:
         """One Adam step per touched node on its mean Eq. 5 loss; returns pre-update Eq. 8 errors ``[B]``.
 
         Samples may share a node: each sample's loss is weighted by 1/(its node's sample count), the
-        per-sample gradients (written out by hand for the one-hidden-layer model) are summed per node
-        with ``index_add_``, and the Adam step is applied to the touched nodes' rows only, with each
-        node's own step count in the bias correction. With a termination head its binary cross-entropy
-        on ``terminated`` (zeros when None) is added to each sample's loss.
+        per-sample gradients (`LocalModel`'s chain rule, written out by hand for the one-hidden-layer model)
+        are summed per node with ``index_add_``, and the Adam step is applied to the touched nodes' rows
+        only, with each node's own step count in the bias correction. When every sample belongs to one node
+        (the per-step case) the node's parameters are shared by the rows: plain matrix products, the sum
+        over the samples inside them. With a termination head its binary cross-entropy on ``terminated``
+        (zeros when None) is added to each sample's loss.
         """
         ids = torch.as_tensor(node_ids, dtype=torch.int64).reshape(-1)
         phi, action = _as_batch(phi), _as_batch(action)
@@ -307,104 +276,42 @@ class ModelBank:
         reward = torch.as_tensor(reward, dtype=torch.float32).reshape(-1)
         if ids.numel() != phi.shape[0]:
             raise ValueError(f"update got {ids.numel()} node ids for {phi.shape[0]} samples")
-        if bool((ids == ids[0]).all()):
-            return self._update_one_node(int(ids[0]), phi, action, next_phi, reward, terminated)
-        if ids.numel() == 1:
-            unique, inverse, counts = ids, torch.zeros(1, dtype=torch.int64), torch.ones(1, dtype=torch.int64)
+        one_node = bool((ids == ids[0]).all())
+        if one_node:
+            unique = ids[:1]
+            rows = self.theta.index_select(0, unique)
+            params = {k: v[0] for k, v in self._split(rows).items()}
+            weight = weight_col = 2.0 / phi.shape[0]
         else:
             unique, inverse, counts = torch.unique(ids, return_inverse=True, return_counts=True)
-        rows = self.theta.index_select(0, unique)
-        per_sample = self._split(rows.index_select(0, inverse))
-        x, h, pred_latent, pred_reward = self._forward(per_sample, phi, action)
-        d_latent = pred_latent - next_phi
-        d_reward = pred_reward - reward
-        if self.error_norm == "squared":
-            errors = (d_latent * d_latent).sum(-1) + d_reward * d_reward
-        else:
-            errors = d_latent.norm(dim=-1) + d_reward.abs()
+            rows = self.theta.index_select(0, unique)
+            params = self._split(rows.index_select(0, inverse))
+            weight_col = (2.0 / counts[inverse].to(torch.float32)).unsqueeze(-1)
+            weight = weight_col.squeeze(-1)
+        model = self.local_model
+        out = model.forward(params, phi, action)
+        d_latent = out.latent - next_phi
+        d_reward = out.reward - reward
+        errors = self._error(d_latent, d_reward)
         # ∂/∂output of Σ_b w_b (‖φ̂_b − φ′_b‖² + (r̂_b − r_b)²), w_b = 1 / count(node of b).
-        weight = (2.0 / counts[inverse].to(torch.float32)).unsqueeze(-1)
-        g_latent = weight * d_latent * self.latent_scale  # φ̂′ = base + s·output
-        g_reward = weight.squeeze(-1) * d_reward
+        g_output = weight_col * d_latent * self.latent_scale  # φ̂′ = base + s·output
+        g_reward = weight * d_reward
         if self.output_activation == "released":
-            g_latent = g_latent * pred_latent * (1.0 - pred_latent)
-            g_reward = g_reward * (1.0 - pred_reward * pred_reward)
-        g_hidden = torch.bmm(per_sample["wm"], g_latent.unsqueeze(-1)).squeeze(-1)
-        g_hidden = g_hidden + g_reward.unsqueeze(-1) * per_sample["wr"].squeeze(-1)
+            g_output = g_output * out.output * (1.0 - out.output)
+            g_reward = g_reward * (1.0 - out.reward * out.reward)
+        g_done = None
         if self.termination:
             done = torch.zeros(ids.numel()) if terminated is None else _as_batch(terminated).reshape(-1)
             # ∂ BCE(sigmoid(z), y) / ∂z = sigmoid(z) − y, weighted like the squared terms (1 / count).
-            g_done = (torch.sigmoid(self._done_logit(per_sample, h)) - done) * weight.squeeze(-1) * 0.5
-            g_hidden = g_hidden + g_done.unsqueeze(-1) * per_sample["wd"].squeeze(-1)
-        g_hidden = g_hidden * (1.0 - h * h)
-        batch = ids.numel()
-        grad = torch.empty((batch, self.num_params))
-        grad[:, self._slices["w1"]] = (x.unsqueeze(-1) * g_hidden.unsqueeze(1)).reshape(batch, -1)
-        grad[:, self._slices["b1"]] = g_hidden
-        grad[:, self._slices["wm"]] = (h.unsqueeze(-1) * g_latent.unsqueeze(1)).reshape(batch, -1)
-        grad[:, self._slices["bm"]] = g_latent
-        grad[:, self._slices["wr"]] = h * g_reward.unsqueeze(-1)
-        grad[:, self._slices["br"]] = g_reward.unsqueeze(-1)
-        if self.termination:
-            grad[:, self._slices["wd"]] = h * g_done.unsqueeze(-1)
-            grad[:, self._slices["bd"]] = g_done.unsqueeze(-1)
-        if batch > 1:  # sum the per-sample gradients of each node (rows follow ``unique``'s order)
+            g_done = (torch.sigmoid(out.done_logit) - done) * weight * 0.5
+        g_hidden = model.hidden_grad(params, out, g_output, g_reward, g_done)
+        grads = model.param_grads(out, g_output, g_reward, g_done, g_hidden, per_sample=not one_node)
+        n_rows = 1 if one_node else ids.numel()
+        grad = torch.empty((n_rows, self.num_params))
+        for k, value in grads.items():
+            grad[:, self._slices[k]] = value.reshape(n_rows, -1)
+        if not one_node:  # sum the per-sample gradients of each node (rows follow ``unique``'s order)
             grad = torch.zeros((unique.numel(), self.num_params)).index_add_(0, inverse, grad)
-        self._adam_step(unique, rows, grad)
-        return errors
-
-    def _update_one_node(
-        self,
-        node: int,
-        phi: torch.Tensor,
-        action: torch.Tensor,
-        next_phi: torch.Tensor,
-        reward: torch.Tensor,
-        terminated: torch.Tensor | None,
-    ) -> torch.Tensor:
-        """`update` when every sample belongs to one node (the per-step case): plain matrix products with that
-        node's parameters, the gradient of the mean loss summed by ``x.T @ g``; the same step as the general
-        path."""
-        unique = torch.tensor([node])
-        rows = self.theta.index_select(0, unique)
-        p = {k: v[0] for k, v in self._split(rows).items()}
-        x = torch.cat([self._model_input(phi), action], dim=-1)
-        h = torch.tanh(x @ p["w1"] + p["b1"])
-        out_latent = h @ p["wm"] + p["bm"]
-        out_reward = h @ p["wr"][:, 0] + p["br"][0]
-        if self.output_activation == "released":
-            pred_latent, pred_reward = torch.sigmoid(out_latent), torch.tanh(out_reward)
-        else:
-            pred_latent, pred_reward = out_latent, out_reward
-        pred_latent = self._model_output(phi, pred_latent)
-        d_latent = pred_latent - next_phi
-        d_reward = pred_reward - reward
-        if self.error_norm == "squared":
-            errors = (d_latent * d_latent).sum(-1) + d_reward * d_reward
-        else:
-            errors = d_latent.norm(dim=-1) + d_reward.abs()
-        weight = 2.0 / phi.shape[0]
-        g_latent = weight * d_latent * self.latent_scale
-        g_reward = weight * d_reward
-        if self.output_activation == "released":
-            g_latent = g_latent * pred_latent * (1.0 - pred_latent)
-            g_reward = g_reward * (1.0 - pred_reward * pred_reward)
-        g_hidden = g_latent @ p["wm"].T + g_reward.unsqueeze(-1) * p["wr"][:, 0]
-        if self.termination:
-            done = torch.zeros(phi.shape[0]) if terminated is None else _as_batch(terminated).reshape(-1)
-            g_done = (torch.sigmoid(h @ p["wd"][:, 0] + p["bd"][0]) - done) * (weight * 0.5)
-            g_hidden = g_hidden + g_done.unsqueeze(-1) * p["wd"][:, 0]
-        g_hidden = g_hidden * (1.0 - h * h)
-        grad = torch.empty((1, self.num_params))
-        grad[0, self._slices["w1"]] = (x.T @ g_hidden).reshape(-1)
-        grad[0, self._slices["b1"]] = g_hidden.sum(0)
-        grad[0, self._slices["wm"]] = (h.T @ g_latent).reshape(-1)
-        grad[0, self._slices["bm"]] = g_latent.sum(0)
-        grad[0, self._slices["wr"]] = h.T @ g_reward
-        grad[0, self._slices["br"]] = g_reward.sum()
-        if self.termination:
-            grad[0, self._slices["wd"]] = h.T @ g_done
-            grad[0, self._slices["bd"]] = g_done.sum()
         self._adam_step(unique, rows, grad)
         return errors
 
@@ -447,3 +354,160 @@ class ModelBank:
 def _as_batch(x: torch.Tensor) -> torch.Tensor:
     t = torch.as_tensor(x, dtype=torch.float32)
     return t.unsqueeze(0) if t.dim() == 1 else t
+
+
+# ---------------------------------------------------------------------------------------------- the kernel
+Array = Any
+"""A float32 ``torch.Tensor`` (the bank) or a float64 NumPy array (the planner)."""
+
+
+@dataclass(frozen=True)
+class LocalPass:
+    """One forward pass of `LocalModel.forward`, kept for its chain rule."""
+
+    x: Array
+    """The network's input [(φ − μ)/s, a]."""
+    hidden: Array
+    """tanh hidden units h."""
+    output: Array
+    """The latent head's output after its activation, before φ̂′ is formed from it (sigmoid(·) if released)."""
+    latent: Array
+    """φ̂′ (``output`` mapped back to latent units)."""
+    reward: Array
+    """r̂ (tanh(·) if released)."""
+    done_logit: Array | None
+    """The termination head's logit (None without a head)."""
+
+
+@dataclass(frozen=True)
+class LocalModel:
+    """The local world model of an ITM node as a pure function of its parameters: the one forward pass and the
+    one chain rule used by `ModelBank` (predictions and the Eq. 5 update) and by the planner (Eq. 6-7).
+
+    [φ, a] → 20 tanh → φ̂′ (latent head), r̂ (reward head) and, with ``wd``/``bd`` among the parameters, a
+    termination logit (Section 4.1.1; the options are those of the module docstring). The model reads
+    x = [(φ − μ)/s, a] and forms φ̂′ = φ + s·M (delta) or μ + s·M (absolute) from its latent head M.
+
+    Parameters ``p`` come in one of two layouts, and the same code serves both:
+
+    - per sample: ``p[k]`` is ``[B, *shape]`` (each sample its own node's model; batched products ``bmm``);
+    - shared: ``p[k]`` is ``shape`` (one model for every row of φ, or for a single unbatched φ; plain
+      matrix products).
+
+    Arrays are float32 tensors (the bank) or float64 NumPy arrays (the planner: `numpy`).
+    """
+
+    released: bool
+    """Sigmoid next latent and tanh reward (the authors' code) instead of linear outputs."""
+    delta: bool
+    """φ̂′ = φ + s·M (``target="delta"``) instead of μ + s·M."""
+    scale: float
+    """s."""
+    offset: Array
+    """μ ``[latent]``."""
+
+    def numpy(self) -> LocalModel:
+        """The same model for float64 NumPy arrays (the planner's)."""
+        return replace(self, scale=float(self.scale), offset=self.offset.double().numpy())
+
+    def _unit(self) -> bool:
+        """s = 1 and μ = 0: the model reads and writes latents as they are."""
+        return self.scale == 1.0 and not bool(self.offset.any())
+
+    def forward(self, p: dict[str, Array], phi: Array, action: Array) -> LocalPass:
+        """M_n(φ, a), R_n(φ, a) and the termination logit, for either parameter layout."""
+        unit = self._unit()
+        x = _cat(phi if unit else (phi - self.offset) / self.scale, action)
+        hidden = _tanh(_affine(x, p["w1"], p["b1"]))
+        output = _affine(hidden, p["wm"], p["bm"])
+        reward = _scalar_head(hidden, p["wr"], p["br"])
+        if self.released:
+            output, reward = _sigmoid(output), _tanh(reward)
+        if unit:
+            latent = phi + output if self.delta else output
+        else:
+            latent = (phi if self.delta else self.offset) + output * self.scale
+        done = _scalar_head(hidden, p["wd"], p["bd"]) if "wd" in p else None
+        return LocalPass(x=x, hidden=hidden, output=output, latent=latent, reward=reward, done_logit=done)
+
+    @staticmethod
+    def hidden_grad(
+        p: dict[str, Array], out: LocalPass, g_output: Array, g_reward: Array, g_done: Array | None = None
+    ) -> Array:
+        """∂L/∂(pre-tanh hidden units) from the gradients w.r.t. the heads' pre-activation outputs."""
+        g = _through(g_output, p["wm"]) + _col(g_reward) * p["wr"][..., 0]
+        if g_done is not None:
+            g = g + _col(g_done) * p["wd"][..., 0]
+        return g * (1.0 - out.hidden * out.hidden)
+
+    @staticmethod
+    def input_grad(p: dict[str, Array], g_hidden: Array) -> Array:
+        """∂L/∂x, x = [(φ − μ)/s, a], from `hidden_grad` (the planner's gradient w.r.t. its actions)."""
+        return _through(g_hidden, p["w1"])
+
+    @staticmethod
+    def param_grads(
+        out: LocalPass, g_output: Array, g_reward: Array, g_done: Array | None, g_hidden: Array,
+        per_sample: bool,
+    ) -> dict[str, Array]:
+        """∂L/∂θ from the pre-activation gradients: per sample ``[B, ...]`` or summed over the rows."""
+        grads = {
+            "w1": _weight_grad(out.x, g_hidden, per_sample), "b1": _bias_grad(g_hidden, per_sample),
+            "wm": _weight_grad(out.hidden, g_output, per_sample), "bm": _bias_grad(g_output, per_sample),
+            "wr": _weight_grad(out.hidden, g_reward, per_sample), "br": _bias_grad(g_reward, per_sample),
+        }
+        if g_done is not None:
+            grads["wd"] = _weight_grad(out.hidden, g_done, per_sample)
+            grads["bd"] = _bias_grad(g_done, per_sample)
+        return grads
+
+
+def _affine(x: Array, w: Array, b: Array) -> Array:
+    """x·W + b: one product per sample (per-sample W ``[B, in, out]``) or one matrix product (shared W)."""
+    if w.ndim == 3:
+        return torch.bmm(x.unsqueeze(1), w).squeeze(1) + b
+    return x @ w + b
+
+
+def _scalar_head(hidden: Array, w: Array, b: Array) -> Array:
+    """A one-unit head (reward, termination logit): h·w + b ``[B]`` (or a scalar for an unbatched h)."""
+    if w.ndim == 3:
+        return (hidden * w[..., 0]).sum(-1) + b[..., 0]
+    return hidden @ w[..., 0] + b[..., 0]
+
+
+def _through(g: Array, w: Array) -> Array:
+    """A gradient back through the weights W of x·W: g·Wᵀ (per sample or shared)."""
+    if w.ndim == 3:
+        return torch.bmm(w, g.unsqueeze(-1)).squeeze(-1)
+    return g @ w.T
+
+
+def _weight_grad(x: Array, g: Array, per_sample: bool) -> Array:
+    """∂L/∂W of x·W: the outer product x ⊗ g per sample, or xᵀg summed over the rows."""
+    if not per_sample:
+        return x.T @ g
+    return x.unsqueeze(-1) * g.unsqueeze(1) if g.ndim == 2 else x * g.unsqueeze(-1)
+
+
+def _bias_grad(g: Array, per_sample: bool) -> Array:
+    if not per_sample:
+        return g.sum(0)
+    return g if g.ndim == 2 else g.unsqueeze(-1)
+
+
+def _col(g: Array) -> Array:
+    """A per-row scalar as a column (a NumPy scalar stays one)."""
+    return g.unsqueeze(-1) if isinstance(g, torch.Tensor) else g
+
+
+def _cat(a: Array, b: Array) -> Array:
+    return torch.cat([a, b], dim=-1) if isinstance(a, torch.Tensor) else np.concatenate([a, b], axis=-1)
+
+
+def _tanh(x: Array) -> Array:
+    return torch.tanh(x) if isinstance(x, torch.Tensor) else np.tanh(x)
+
+
+def _sigmoid(x: Array) -> Array:
+    return torch.sigmoid(x) if isinstance(x, torch.Tensor) else 1.0 / (1.0 + np.exp(-x))

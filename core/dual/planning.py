@@ -16,8 +16,9 @@ re-predicting the latents φ̂_{h+1} = M_{n_h}(φ̂_h, â_h) through the local m
 the models' weights stay fixed. Decision: the model used at plan step h is that of the node n_h the
 rollout visited (Alg. 1's choice), held fixed during the K steps so the objective stays
 differentiable. The gradient is back-propagated through time by hand (closed-form derivatives of
-the one-hidden-layer tanh models), which costs a few dozen small matrix products instead of an
-autograd graph per step; `plan_loss` is the autograd reference the tests compare it with.
+the one-hidden-layer tanh models, `LocalModel` in dual/model_bank.py: the bank's forward pass and chain rule),
+which costs a few dozen small matrix products instead of an autograd graph per step; the tests compare it with
+autograd through the same forward pass.
 
 Agents act in a normalised action space, [−1, 1]^d (the environment boundary rescales), so the plan's bounds
 are [−1, 1]. Two readings of Eq. 7 (docs/dual-system.md, "Planner"):
@@ -151,28 +152,6 @@ def plan_depth(
     )
 
 
-def plan_loss(
-    phi: torch.Tensor,
-    plan: torch.Tensor,
-    nodes: torch.Tensor,
-    bank: ModelBank,
-    objective: PlanObjective = "sum",
-    r_star: float = 1.0,
-) -> torch.Tensor:
-    """L_plan (Eq. 6 or the released per-step form), differentiable in ``plan`` (autograd reference)."""
-    params = bank.gather(nodes)
-    current = torch.as_tensor(phi, dtype=torch.float32).reshape(1, -1)
-    rewards = []
-    for h in range(plan.shape[0]):
-        step = {k: v[h : h + 1] for k, v in params.items()}
-        current, reward = bank.forward_with(step, current, plan[h : h + 1])
-        rewards.append(reward)
-    r = torch.cat(rewards)
-    if objective == "sum":
-        return (r_star - r.sum()) ** 2
-    return 0.5 * ((r_star - r) ** 2).sum()
-
-
 def optimise_plan(
     phi: torch.Tensor,
     rollout: Rollout,
@@ -230,50 +209,29 @@ def optimise_plan(
 
 
 class _PlanModel:
-    """The rollout's local models, gathered once as float64 NumPy arrays, with a hand-written BPTT."""
+    """The rollout's local models, gathered once as float64 NumPy arrays: L_plan (Eq. 6 or the per-step form)
+    and its gradient w.r.t. the plan, back-propagated through time with `LocalModel`'s chain rule."""
 
     def __init__(self, bank: ModelBank, nodes: torch.Tensor) -> None:
-        p = bank.gather(nodes)
-        self.w1 = p["w1"].double().numpy()  # [H, in, hidden]
-        self.b1 = p["b1"].double().numpy()
-        self.wm = p["wm"].double().numpy()  # [H, hidden, latent]
-        self.bm = p["bm"].double().numpy()
-        self.wr = p["wr"].double().numpy()[..., 0]  # [H, hidden]
-        self.br = p["br"].double().numpy()[:, 0]
+        params = {k: v.double().numpy() for k, v in bank.gather(nodes).items() if k not in ("wd", "bd")}
+        self.steps = [{k: v[h] for k, v in params.items()} for h in range(nodes.shape[0])]
+        """Model h's parameters (the plan step's node n_h), shared layout."""
+        self.model = bank.local_model.numpy()
         self.latent_dim = bank.latent_dim
-        self.released = bank.output_activation == "released"
-        self.delta = bank.target == "delta"
-        self.scale = float(bank.latent_scale)
-        self.offset = bank.latent_offset.double().numpy()
 
     def loss_and_grad(
         self, phi: np.ndarray, plan: np.ndarray, objective: PlanObjective, r_star: float
     ) -> tuple[float, np.ndarray]:
         horizon = plan.shape[0]
-        d = self.latent_dim
-        hiddens, latent_grads_act, reward_grads_act, inputs = [], [], [], []
+        model, d = self.model, self.latent_dim
+        passes = []
         rewards = np.empty(horizon)
-        current = phi
-        s, offset = self.scale, self.offset
+        current = phi  # φ̂_h = M_{n_{h−1}}(φ̂_{h−1}, â_{h−1}), re-predicted from the plan
         for h in range(horizon):
-            x = np.concatenate([(current - offset) / s, plan[h]])
-            hidden = np.tanh(x @ self.w1[h] + self.b1[h])
-            pre_latent = hidden @ self.wm[h] + self.bm[h]
-            pre_reward = hidden @ self.wr[h] + self.br[h]
-            if self.released:
-                nxt = 1.0 / (1.0 + np.exp(-pre_latent))
-                reward = np.tanh(pre_reward)
-                latent_grads_act.append(nxt * (1.0 - nxt))
-                reward_grads_act.append(1.0 - reward * reward)
-            else:
-                nxt, reward = pre_latent, pre_reward
-                latent_grads_act.append(None)
-                reward_grads_act.append(1.0)
-            nxt = s * nxt + (current if self.delta else offset)
-            inputs.append(x)
-            hiddens.append(hidden)
-            rewards[h] = reward
-            current = nxt
+            out = model.forward(self.steps[h], current, plan[h])
+            passes.append(out)
+            rewards[h] = out.reward
+            current = out.latent
         if objective == "sum":
             residual = r_star - rewards.sum()
             loss = residual * residual
@@ -285,12 +243,13 @@ class _PlanModel:
         grad = np.empty_like(plan)
         d_next = np.zeros(d)  # dL/dφ̂_{h+1}, flowing back from later steps
         for h in reversed(range(horizon)):
-            d_pre_latent = d_next if latent_grads_act[h] is None else d_next * latent_grads_act[h]
-            d_pre_reward = d_rewards[h] * reward_grads_act[h]
-            d_hidden = self.wm[h] @ (s * d_pre_latent) + self.wr[h] * d_pre_reward
-            d_z = d_hidden * (1.0 - hiddens[h] ** 2)
-            d_x = self.w1[h] @ d_z
+            out, g_output, g_reward = passes[h], d_next, d_rewards[h]
+            if model.released:  # σ′ and tanh′, in this loop's own order of products (float64 plans unchanged)
+                g_output = d_next * (out.output * (1.0 - out.output))
+                g_reward = g_reward * (1.0 - out.reward * out.reward)
+            g_hidden = model.hidden_grad(self.steps[h], out, model.scale * g_output, g_reward)
+            d_x = model.input_grad(self.steps[h], g_hidden)
             grad[h] = d_x[d:]
-            through_model = d_x[:d] / s  # the model reads (φ̂_h − μ) / s
-            d_next = through_model + d_next if self.delta else through_model  # delta: identity path too
+            through_model = d_x[:d] / model.scale  # the model reads (φ̂_h − μ) / s
+            d_next = through_model + d_next if model.delta else through_model  # delta: identity path too
         return float(loss), grad

@@ -229,3 +229,23 @@ def test_one_node_fast_path_equals_per_node_adam() -> None:
 def test_delta_needs_linear_outputs() -> None:
     with pytest.raises(ValueError, match="delta"):
         _bank(target="delta", output_activation="released")
+
+
+def test_released_model_in_scaled_units_equals_autograd() -> None:
+    """σ′ is taken at the sigmoid's output, not at φ̂′ = μ + s·σ (the two differ once s ≠ 1 or μ ≠ 0)."""
+    bank = _bank(output_activation="released")
+    bank.latent_scale, bank.latent_offset = 0.4, torch.linspace(-0.5, 0.5, LATENT)
+    ref = _NodeModel(bank, 1)
+    opt = torch.optim.Adam(ref.parameters(), lr=1e-2)
+    for ids in ([1, 1, 1], [1, 0, 1]):  # the one-node path and the general path
+        _, phi, act, nxt, rew = _batch(ids)
+        rows = [i for i, n in enumerate(ids) if n == 1]
+        out, r = ref((phi[rows] - bank.latent_offset) / bank.latent_scale, act[rows])
+        latent = bank.latent_offset + bank.latent_scale * out
+        loss = ((latent - nxt[rows]) ** 2).sum(-1) + (r - rew[rows]) ** 2
+        opt.zero_grad()
+        loss.mean().backward()
+        opt.step()
+        bank.update(torch.tensor(ids), phi, act, nxt, rew)
+    for k, value in ref.flat().items():
+        torch.testing.assert_close(bank.params[k][1], value.detach(), atol=1e-6, rtol=0)

@@ -12,7 +12,7 @@ from torch import nn
 from core.dual.itm import InstantaneousTopologicalMap
 from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
-from core.dual.planning import Rollout, optimise_plan, plan_depth, plan_loss
+from core.dual.planning import PlanObjective, Rollout, optimise_plan, plan_depth
 
 
 def _chain(n_nodes: int, reliable: list[bool]):
@@ -59,6 +59,22 @@ def test_depth_zero_when_start_node_unreliable_or_without_history() -> None:
     assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6).depth == 0
     itm, bank, lp = _chain(4, [])
     assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6).depth == 0
+
+
+def plan_loss(phi: torch.Tensor, plan: torch.Tensor, nodes: torch.Tensor, bank: ModelBank,
+              objective: PlanObjective = "sum", r_star: float = 1.0) -> torch.Tensor:
+    """The autograd reference: L_plan (Eq. 6 or the per-step form) through the bank's `LocalModel.forward`."""
+    params = bank.gather(nodes)
+    current = torch.as_tensor(phi, dtype=torch.float32).reshape(1, -1)
+    rewards = []
+    for h in range(plan.shape[0]):
+        out = bank.local_model.forward({k: v[h : h + 1] for k, v in params.items()}, current, plan[h : h + 1])
+        current = out.latent
+        rewards.append(out.reward)
+    r = torch.cat(rewards)
+    if objective == "sum":
+        return (r_star - r.sum()) ** 2
+    return 0.5 * ((r_star - r) ** 2).sum()
 
 
 def _random_setup(activation: str = "linear"):

@@ -47,7 +47,7 @@ def _run_name(config: Any) -> str:
 
 
 def _observation_kind(env_id: str, config: Any) -> str:
-    """Whether ``env_id`` gives images or vectors (what ``--profile auto`` picks by): the env is built once."""
+    """Whether ``env_id`` gives images or vectors (what ``--profile auto`` picks by); builds the env once."""
     import dataclasses
 
     from core.config import NICO_GRASP_ID

@@ -29,6 +29,7 @@ from core.config import DualConfig
 from core.dual.meta_controller import MetaController
 from core.dual.planning import ActorFn, PlanResult, Rollout
 from core.dual.world_models import LocalWorldModels
+from core.modelfree.agent import Transition
 from core.modelfree.replay import LatentReplay, PixelBatch
 
 
@@ -73,14 +74,18 @@ class DualSystem:
             arbitration = False
         self.meta = MetaController(self.world, dual, fixed_horizon=fixed_horizon) if arbitration else None
         self.counters = EpisodeCounters()
+        self._phi: torch.Tensor | None = None
+        self._node = 0
         self.total_imagined = 0
         self.total_mb_decisions = 0
         self.total_mf_decisions = 0
 
     # -- acting (Alg. 2 lines 10-19) -------------------------------------------------------------
     def locate(self, phi: torch.Tensor) -> int:
-        """Lines 10-11: the ITM update with φ_t; the node n it matched."""
-        return self.world.observe_state(phi[0])
+        """Lines 10-11: the ITM update with φ_t ``[1, latent]``; the node n it matched. φ_t and n are kept for
+        :meth:`learn` of the same step."""
+        self._phi, self._node = phi, self.world.observe_state(phi[0])
+        return self._node
 
     def decide(self, phi: torch.Tensor, node: int, actor: ActorFn) -> tuple[np.ndarray, Rollout | None]:
         """Lines 12-19: the meta-controller's action before exploration, and its rollout when model-based."""
@@ -119,14 +124,16 @@ class DualSystem:
         self.count_imagined(rollout.depth)
 
     # -- observing (Alg. 2 lines 21-25) ----------------------------------------------------------
-    def learn(
-        self, node: int, phi: torch.Tensor, action: np.ndarray, reward: float, next_phi: torch.Tensor,
-        terminated: bool,
-    ) -> float:
-        """Lines 22 and 25: the Eq. 8 error of M_n, R_n before their update, LP of n, one Eq. 5 step; returns
-        r_int of the transition (line 22, ``dual.intrinsic_signal``)."""
-        feedback = self.world.learn_transition(node, phi[0], torch.as_tensor(action, dtype=torch.float32),
-                                               reward, next_phi[0], terminated)
+    def learn(self, next_phi: torch.Tensor, transition: Transition) -> float:
+        """Lines 22 and 25 for the step :meth:`locate` began: the Eq. 8 error of M_n, R_n before their update,
+        LP of n, one Eq. 5 step; returns r_int of the transition (line 22, ``dual.intrinsic_signal``)."""
+        if self._phi is None:
+            raise RuntimeError("observe() without a preceding act(obs, explore=True)")
+        phi, reward = self._phi, transition.reward
+        action = torch.as_tensor(transition.action, dtype=torch.float32)
+        feedback = self.world.learn_transition(self._node, phi[0], action, reward, next_phi[0],
+                                               transition.terminated)
+        self._phi = None
         self.counters.errors.append(feedback.error)
         self.counters.naive_errors.append(self._no_change_error(phi, next_phi[0], reward))
         self.counters.intrinsic.append(feedback.intrinsic_reward)

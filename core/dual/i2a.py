@@ -26,7 +26,7 @@ import torch
 
 from core.config import Config
 from core.dual.dual_system import DualSystem
-from core.dual.im2c import refit_dual_system
+from core.dual.im2c import observe_real_step
 from core.dual.imagination import RegionModels, imagine, la_imagination_rollout
 from core.envs.spec import EnvSpec
 from core.modelfree.agent import LearnerAgent, Transition, learner_diagnostics, to_device
@@ -57,15 +57,12 @@ class I2A(LearnerAgent):
         self.latent_replay = LatentReplay(dual.latent_buffer_size, self.learner.latent_dim, spec.action_dim)
         self.imagination: Imagination = imagination
         self.act_time = dual.imagination_source == "act_time"
-        self._phi: torch.Tensor | None = None
-        self._node = 0
 
     def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
         phi = self.encode(obs)  # line 9
         if not explore:
             return self.greedy(phi)
         node = self.dual.locate(phi)  # lines 10-11
-        self._phi, self._node = phi, node
         action, rollout = self.dual.decide(phi, node, self.actor)  # lines 12-19
         if self.act_time and self.imagination == "adaptive":
             self.dual.store_imagined(rollout, self.latent_replay)  # line 17
@@ -74,20 +71,10 @@ class I2A(LearnerAgent):
             rollout = la_imagination_rollout(phi, node, self.dual.world, self.actor, dual.d_max,
                                              dual.imagination_prob_scale, self.rng)
             self.dual.store_imagined(rollout, self.latent_replay)
-        return self.learner.explore(action, phi[0], self.steps, self.rng).astype(np.float32), {}  # line 20
+        return self.explore(action, phi)  # line 20
 
     def observe(self, transition: Transition) -> None:
-        if self._phi is None:
-            raise RuntimeError("observe() without a preceding act(obs, explore=True)")
-        next_phi = self.encode(transition.next_obs)  # line 21
-        r_int = self.dual.learn(self._node, self._phi, transition.action, transition.reward, next_phi,
-                                transition.terminated)  # lines 22 and 25
-        self.replay.add(transition.action, transition.reward + r_int, transition.next_obs,  # lines 23-24
-                        transition.terminated, reward_ext=transition.reward)
-        self.steps += 1
-        self._phi = None
-        if self.dual.refit_due(self.steps):
-            refit_dual_system(self, self.dual)
+        observe_real_step(self, self.dual, transition)  # lines 21-25 of Alg. 2
 
     def learn_minibatch(self) -> dict[str, float]:
         """Lines 34-37 on a pixel minibatch and a latent one (module docstring)."""

@@ -46,30 +46,17 @@ class IM2C(LearnerAgent):
         self.replay = PixelReplay(agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)  # 4
         self.dual = DualSystem(config.dual, self.learner.latent_dim, spec.action_dim, rng,  # lines 5-6
                                regions=regions, fixed_horizon=fixed_horizon)
-        self._phi: torch.Tensor | None = None
-        self._node = 0
 
     def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
         phi = self.encode(obs)  # line 9
         if not explore:
             return self.greedy(phi)
         node = self.dual.locate(phi)  # lines 10-11
-        self._phi, self._node = phi, node
         action, _ = self.dual.decide(phi, node, self.actor)  # lines 12-19
-        return self.learner.explore(action, phi[0], self.steps, self.rng).astype(np.float32), {}  # line 20
+        return self.explore(action, phi)  # line 20
 
     def observe(self, transition: Transition) -> None:
-        if self._phi is None:
-            raise RuntimeError("observe() without a preceding act(obs, explore=True)")
-        next_phi = self.encode(transition.next_obs)  # line 21
-        r_int = self.dual.learn(self._node, self._phi, transition.action, transition.reward, next_phi,
-                                transition.terminated)  # lines 22 and 25
-        self.replay.add(transition.action, transition.reward + r_int, transition.next_obs,  # lines 23-24
-                        transition.terminated, reward_ext=transition.reward)
-        self.steps += 1
-        self._phi = None
-        if self.dual.refit_due(self.steps):
-            refit_dual_system(self, self.dual)
+        observe_real_step(self, self.dual, transition)  # lines 21-25
 
     def episode_diagnostics(self) -> dict[str, float]:
         return {**learner_diagnostics(self.learner, self.steps, len(self.replay)), **self.dual.diagnostics()}
@@ -82,6 +69,18 @@ class IM2C(LearnerAgent):
     def load_state_dict(self, state: dict[str, Any]) -> None:
         super().load_state_dict(state)
         self.dual.load_state_dict(state["dual"])
+
+
+def observe_real_step(agent: LearnerAgent, dual: DualSystem, transition: Transition) -> None:
+    """Algorithm 2 lines 21-25, the same in every dual agent: φ_{t+1} = f(s_{t+1}) (21); r_int and one Eq. 5
+    step of M_n, R_n (22, 25); r = r_ext + r_int into the pixel replay (23-24); the refit repair when due."""
+    next_phi = agent.encode(transition.next_obs)  # line 21
+    r_int = dual.learn(next_phi, transition)  # lines 22 and 25
+    agent.replay.add(transition.action, transition.reward + r_int, transition.next_obs,  # lines 23-24
+                     transition.terminated, reward_ext=transition.reward)
+    agent.steps += 1
+    if dual.refit_due(agent.steps):
+        refit_dual_system(agent, dual)
 
 
 def refit_dual_system(agent: LearnerAgent, dual: DualSystem) -> None:

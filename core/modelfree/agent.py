@@ -170,6 +170,10 @@ class LearnerAgent:
         """``act(obs, explore=False)``: the deployed policy μ(f(s)), without side effects."""
         return self.actor(latent)[0].numpy().astype(np.float32), {}
 
+    def explore(self, action: np.ndarray, latent: torch.Tensor) -> tuple[np.ndarray, dict[str, float]]:
+        """The executed action: the learner's exploration around ``action`` (Algorithm 2, line 20)."""
+        return self.learner.explore(action, latent[0], self.steps, self.rng).astype(np.float32), {}
+
     def start_value(self, obs: np.ndarray) -> float:
         """The critic's value of the policy's action at ``obs`` (twins: the smaller)."""
         return float(self.learner.value_of(self.encode(obs).to(self.device))[0])
@@ -222,8 +226,7 @@ class ModelFreeAgent(LearnerAgent):
         latent = self.encode(obs)
         if not explore:
             return self.greedy(latent)
-        action = self.actor(latent)[0].numpy()
-        return self.learner.explore(action, latent[0], self.steps, self.rng).astype(np.float32), {}
+        return self.explore(self.actor(latent)[0].numpy(), latent)
 
     def observe(self, transition: Transition) -> None:
         self.replay.add(transition.action, transition.reward, transition.next_obs, transition.terminated,

@@ -92,30 +92,20 @@ class UpdateSchedule:
     """When the learner updates and how often (Algorithm 2, lines 26-28): after every env step
     (``agent.update_schedule = per_step``, ``updates_per_step`` minibatches) or after every episode
     (``per_episode``, the released code), once ``learning_starts`` steps are in the replay. Every agent holds
-    one; ``run(minibatch)`` averages the losses of ``count`` minibatch updates per key."""
+    one; ``run(moment, ...)`` averages the losses of its minibatch updates per key."""
 
     def __init__(self, agent: AgentConfig) -> None:
         self.config = agent
 
-    def after_step(
-        self, steps: int, replay_size: int, minibatch: Callable[[], dict[str, float]]
+    def run(
+        self, moment: str, steps: int, replay_size: int, minibatch: Callable[[], dict[str, float]]
     ) -> dict[str, float]:
-        if self.config.update_schedule != "per_step":
+        """At ``moment`` (``per_step``: after an env step; ``per_episode``: after an episode), the schedule's
+        minibatch updates if it is the configured one and ``learning_starts`` steps are in the replay."""
+        cfg = self.config
+        if cfg.update_schedule != moment or steps < cfg.learning_starts or replay_size == 0:
             return {}
-        return self._run(self.config.updates_per_step, steps, replay_size, minibatch)
-
-    def after_episode(
-        self, steps: int, replay_size: int, minibatch: Callable[[], dict[str, float]]
-    ) -> dict[str, float]:
-        if self.config.update_schedule != "per_episode":
-            return {}
-        return self._run(self.config.updates_per_episode, steps, replay_size, minibatch)
-
-    def _run(
-        self, count: int, steps: int, replay_size: int, minibatch: Callable[[], dict[str, float]]
-    ) -> dict[str, float]:
-        if steps < self.config.learning_starts or replay_size == 0:
-            return {}
+        count = cfg.updates_per_step if moment == "per_step" else cfg.updates_per_episode
         totals: dict[str, float] = {}
         counts: dict[str, int] = {}
         for _ in range(count):
@@ -185,10 +175,10 @@ class LearnerAgent:
         return self.learner.update(batch)
 
     def update_after_step(self) -> dict[str, float]:
-        return self.schedule.after_step(self.steps, len(self.replay), self.learn_minibatch)
+        return self.schedule.run("per_step", self.steps, len(self.replay), self.learn_minibatch)
 
     def update_after_episode(self) -> dict[str, float]:
-        return self.schedule.after_episode(self.steps, len(self.replay), self.learn_minibatch)
+        return self.schedule.run("per_episode", self.steps, len(self.replay), self.learn_minibatch)
 
     def state_dict(self) -> dict[str, Any]:
         return {

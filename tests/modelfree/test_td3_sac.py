@@ -42,6 +42,17 @@ def _batch(size: int = 32, seed: int = 0, spec: EnvSpec = VECTOR) -> PixelBatch:
     return PixelBatch(obs, action, reward, next_obs, terminated, reward)
 
 
+def _target_at_seed(learner, seed: int):
+    """A batch, its next latents and the learner's TD target drawn at torch seed ``seed``; the generator is
+    reset to ``seed`` afterwards, so the reference computation draws the same noise."""
+    data = _batch()
+    phi = learner.encode(data.next_obs)
+    torch.manual_seed(seed)
+    target = learner.td_target(data.reward, phi, data.terminated)
+    torch.manual_seed(seed)
+    return data, phi, target
+
+
 def test_textbook_network_reads_the_scaled_observation_through_mlp_heads():
     learner = _learner("td3")
     assert isinstance(learner.encoder, ScaledObservation) and learner.decoder is None
@@ -60,11 +71,7 @@ def test_td3_target_is_the_smaller_target_critic_at_a_smoothed_target_action():
     with torch.no_grad():  # targets apart from the online networks, so the minimum is not trivially either
         for p in learner.target_critic.q2.parameters():
             p.add_(0.3 * torch.randn_like(p))
-    data = _batch()
-    phi = learner.encode(data.next_obs)
-    torch.manual_seed(7)
-    got = learner.td_target(data.reward, phi, data.terminated)
-    torch.manual_seed(7)
+    data, phi, got = _target_at_seed(learner, 7)
     with torch.no_grad():
         mu = learner.target_actor(phi)
         noise = (torch.randn_like(mu) * 0.3).clamp(-0.4, 0.4)
@@ -113,11 +120,7 @@ def test_squashed_gaussian_log_probability_matches_torch_distributions():
 
 def test_sac_target_is_the_soft_value_of_the_smaller_target_critic():
     learner = _learner("sac", "agent.alpha_init=0.5")
-    data = _batch()
-    phi = learner.encode(data.next_obs)
-    torch.manual_seed(3)
-    got = learner.td_target(data.reward, phi, data.terminated)
-    torch.manual_seed(3)
+    data, phi, got = _target_at_seed(learner, 3)
     with torch.no_grad():
         action, log_prob = learner.actor.sample(phi)
         value = learner.target_critic(phi, action).min(dim=0).values - 0.5 * log_prob

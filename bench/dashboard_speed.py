@@ -72,9 +72,9 @@ def fill_database(url: str) -> int:
     a running job."""
     from core.config import load_config
     from registry.database import Database
-    from service import job_store
-    from service.migrate import upgrade_service
-    from service.models import Job, JobMetric
+    from service.database import job_store
+    from service.database.migrate import upgrade_service
+    from service.database.models import Job, JobMetric
 
     database = Database(url)
     upgrade_service(database.engine)
@@ -166,8 +166,8 @@ def _episode_record(episode: int, evaluate_every: int) -> dict[str, Any]:
 def add_long_run(url: str, episodes: int = LONG_EPISODES) -> int:
     """A finished train job with `episodes` recorded episodes; its id."""
     from registry.database import Database
-    from service import job_store
-    from service.models import Job, JobMetric
+    from service.database import job_store
+    from service.database.models import Job, JobMetric
 
     database = Database(url)
     try:

@@ -65,7 +65,8 @@ def _process_cpu_s(pid: int) -> float:
 
 
 def _service_pids(root: int) -> list[int]:
-    """The service's processes: `root` and its descendants, except job processes (`service.worker`)."""
+    """The service's processes: `root` and its descendants, except job processes
+    (`service.execution.worker`)."""
     parents: dict[int, int] = {}
     for entry in Path("/proc").iterdir():
         if entry.name.isdigit():
@@ -81,7 +82,7 @@ def _service_pids(root: int) -> list[int]:
     service = []
     for pid in found:
         try:
-            if b"service.worker" not in Path(f"/proc/{pid}/cmdline").read_bytes():
+            if b"service.execution.worker" not in Path(f"/proc/{pid}/cmdline").read_bytes():
                 service.append(pid)
         except OSError:
             continue
@@ -215,7 +216,7 @@ def _fill_table(database_url: str, template_id: int, count: int) -> None:
     from sqlalchemy import insert, select
 
     from registry.database import Database
-    from service.models import Job
+    from service.database.models import Job
 
     database = Database(database_url)
     try:

@@ -13,5 +13,5 @@
 
 The import direction is a DAG: task_levels → config → envs → modelfree → dual → runs →
 {experiments, deploy}; nothing imports upward (tests/test_layout.py checks it). `core` imports none of
-the other dualsys packages (see DESIGN.md, dependency direction).
+the other dualsys packages (docs/layout.md: the floors, and why each module sits where it does).
 """

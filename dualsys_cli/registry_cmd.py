@@ -123,8 +123,8 @@ def register(
 
 
 def _job_run_dir(registry: Any, job_id: int) -> Path:
-    from service.migrate import upgrade_service
-    from service.models import Job
+    from service.database.migrate import upgrade_service
+    from service.database.models import Job
 
     upgrade_service(registry.database.engine)
     with registry.database.read() as session:

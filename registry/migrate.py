@@ -2,7 +2,7 @@
 
 The migration scripts ship inside the package (`registry/migrations`), with their own version
 table, so the registry can be used alone (e.g. `dualsys registry register` without a service);
-the job service upgrades these first, then its own (`service/migrations`).
+the job service upgrades these first, then its own (`service/database/migrations`).
 """
 
 from __future__ import annotations

@@ -22,8 +22,8 @@ from fastapi import FastAPI
 from uvicorn.supervisors import Multiprocess
 
 from registry.database import Database
-from service.app import create_app
-from service.migrate import upgrade_service
+from service.api.app import create_app
+from service.database.migrate import upgrade_service
 from service.settings import ServiceSettings
 
 log = logging.getLogger("dualsys.service")
@@ -63,7 +63,7 @@ def api_replica(settings: ServiceSettings) -> FastAPI:
 
 def serve_replicas(settings: ServiceSettings) -> None:
     """N API processes on one socket, and the one supervisor in this (parent) process."""
-    from service.supervisor import Supervisor
+    from service.execution.supervisor import Supervisor
 
     database = Database(settings.database_url)
     upgrade_service(database.engine)  # once, before any API process starts

@@ -1,6 +1,8 @@
-"""The package layout's contract (core/__init__.py, DESIGN.md): `core` is grouped by the paper's parts, its
-packages stack without an arrow back up, nothing in the project imports in a circle, and `core` imports none
-of the other dualsys packages. Every import counts, the ones inside functions too."""
+"""The package layout's contract (core/__init__.py, service/__init__.py, docs/layout.md): `core` is grouped by
+the paper's parts, its packages stack without an arrow back up, nothing in the project imports in a circle,
+and `core` imports none of the other dualsys packages; `service` is grouped by the process that runs each
+part, its database layer imports no other layer, and a job's own process never imports the database.
+Every import counts, the ones inside functions too."""
 
 from __future__ import annotations
 
@@ -99,3 +101,82 @@ def test_no_import_circle_anywhere() -> None:
         if not state.get(module):
             visit(module, [])
     assert not circles, circles[:3]
+
+
+SERVICE_LAYERS = ("service.api", "service.ui", "service.execution", "service.database", "service.schemas")
+
+
+def _service_imports(prefix: str) -> dict[str, set[str]]:
+    """The service modules each module under `prefix` imports."""
+    modules = _modules()
+    return {
+        module: {target for target in _imports(path, set(modules)) if target.split(".")[0] == "service"}
+        for module, path in modules.items()
+        if module == prefix or module.startswith(prefix + ".")
+    }
+
+
+def _in(module: str, *prefixes: str) -> bool:
+    return any(module == prefix or module.startswith(prefix + ".") for prefix in prefixes)
+
+
+def test_service_layers_import_only_downward() -> None:
+    """What each lower part of the service may import of the service (the API, the dashboard and the
+    launcher sit on top of them): the client nothing, the schemas only themselves, the database layer
+    neither the API, the dashboard nor the execution layer, the execution layer not the API or dashboard."""
+    allowed = {
+        "service.client": (),
+        "service.schemas": ("service.schemas",),
+        "service.database": ("service.database", "service.schemas", "service.errors"),
+        "service.execution": (
+            "service.execution",
+            "service.database",
+            "service.schemas",
+            "service.errors",
+            "service.settings",
+        ),
+    }
+    wrong = [
+        f"{module} → {target}"
+        for layer, below in allowed.items()
+        for module, targets in _service_imports(layer).items()
+        for target in targets
+        if not _in(target, *below)
+    ]
+    assert not wrong, wrong
+
+
+def test_service_api_reaches_execution_only_through_the_supervisor_and_the_job_kinds() -> None:
+    allowed = {"service.execution.supervisor", "service.execution.job_kinds"}
+    wrong = [
+        f"{module} → {target}"
+        for layer in ("service.api", "service.ui")
+        for module, targets in _service_imports(layer).items()
+        for target in targets
+        if _in(target, "service.execution") and target not in allowed
+    ]
+    assert not wrong, wrong
+
+
+def test_a_jobs_own_process_never_imports_the_database() -> None:
+    """What a job's process runs (`python -m service.execution.worker`, the Ray task) reaches neither
+    `service.database` nor `registry.database`, directly or through what it imports."""
+    modules = _modules()
+    graph = {module: _imports(path, set(modules)) for module, path in modules.items()}
+    for entry in ("service.execution.worker", "service.execution.executors.ray_task"):
+        seen, stack = {entry}, [entry]
+        while stack:
+            for target in graph[stack.pop()]:
+                if target not in seen:
+                    seen.add(target)
+                    stack.append(target)
+        assert not [m for m in seen if _in(m, "service.database", "registry.database")], (entry, sorted(seen))
+
+
+def test_every_service_module_is_in_a_layer() -> None:
+    """Beside the layers, only the launcher, the client, the settings and the errors stay at the top."""
+    top = {"service", "service.server", "service.client", "service.settings", "service.errors"}
+    loose = sorted(
+        m for m in _modules() if _in(m, "service") and m not in top and not _in(m, *SERVICE_LAYERS)
+    )
+    assert not loose, loose

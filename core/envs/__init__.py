@@ -2,14 +2,18 @@
 problem of the intrinsic-reward check.
 
 Importing this package registers the gymnasium ids ``dualsys/NicoGrasp-v0`` and ``dualsys/ThreeRegions-v0``.
+It does not import PyBullet, which prints its build banner when imported: ``NicoGraspEnv`` and
+``PhysicsSettings`` are imported on first use (``core.envs.NicoGraspEnv``, ``from core.envs import ...``,
+or gymnasium building the id), so a command that never builds NicoGrasp prints no banner.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import gymnasium as gym
 
 from core.envs.camera import CameraPose, CameraShift, Lighting
-from core.envs.nico_grasp import NicoGraspEnv, PhysicsSettings
 from core.envs.oracle import oracle_action, run_oracle
 from core.envs.robot_description import ArmGeometry
 from core.envs.three_regions import ThreeRegionsEnv
@@ -22,6 +26,22 @@ if ENV_ID not in gym.registry:
 if THREE_REGIONS_ID not in gym.registry:
     gym.register(id=THREE_REGIONS_ID, entry_point="core.envs.three_regions:ThreeRegionsEnv",
                  max_episode_steps=None)
+
+if TYPE_CHECKING:
+    from core.envs.nico_grasp import NicoGraspEnv, PhysicsSettings
+
+_NICO_GRASP_NAMES = ("NicoGraspEnv", "PhysicsSettings")
+
+
+def __getattr__(name: str) -> Any:
+    """``NicoGraspEnv`` and ``PhysicsSettings`` from `core.envs.nico_grasp`, imported (with PyBullet) on
+    first use."""
+    if name in _NICO_GRASP_NAMES:
+        import core.envs.nico_grasp as nico_grasp
+
+        return getattr(nico_grasp, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "ENV_ID",

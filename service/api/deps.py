@@ -14,9 +14,9 @@ from starlette.concurrency import run_in_threadpool
 
 from registry import PolicyRegistry
 from registry.database import Database
-from service.job_inserter import JobInserter
+from service.database.job_inserter import JobInserter
+from service.execution.supervisor import Supervisor
 from service.settings import ServiceSettings
-from service.supervisor import Supervisor
 
 T = TypeVar("T")
 

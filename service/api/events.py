@@ -18,10 +18,10 @@ from fastapi import Request
 from starlette.concurrency import run_in_threadpool
 
 from registry.database import Database
-from service import job_store
 from service.api.presenters import job_public, metric_public
+from service.database import job_store
+from service.database.models import FINISHED_STATUSES
 from service.errors import JobNotFound
-from service.models import FINISHED_STATUSES
 
 POLL_S = 0.25
 KEEPALIVE_S = 15.0

@@ -7,7 +7,7 @@ from typing import Any
 from fastapi import Response
 from pydantic import BaseModel
 
-from service.models import Job, JobArtifact, JobMetric
+from service.database.models import Job, JobArtifact, JobMetric
 from service.schemas.jobs import ArtifactPublic, JobCell, JobProgress, JobPublic, MetricPublic
 
 

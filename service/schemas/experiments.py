@@ -17,6 +17,7 @@ ExperimentStatus = Literal["queued", "running", "succeeded", "failed", "cancelle
 
 class ExperimentCreate(StrictRequest):
     content: str = Field(
+        min_length=1,  # the schema says what the handler refuses: an empty file is a 422 either way
         max_length=80_000,  # 12 bytes a character at worst as JSON: under the 1 MB request limit
         description="The experiment file's text: YAML in the format of `dualsys experiment` "
         "(docs/experiments.md). A file that breaks its rules is a 422 naming the key (`content.seeds`).",

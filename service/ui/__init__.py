@@ -1,4 +1,5 @@
-"""The job service's web dashboard: server-rendered pages under `/ui` (see docs/service.md, Dashboard).
+"""The job service's web dashboard: server-rendered pages under `/ui` (see docs/service.md, Dashboard),
+served by the API process(es) beside the REST routes (`service.api.app` installs them).
 
 `routes.py` (the pages and `install_dashboard`), `views.py` (what a page shows of a job),
 `rendering.py` (Jinja2 environment, static files), `templates/` and `static/` (shipped as package data:

@@ -24,10 +24,10 @@ from starlette.routing import NoMatchFound
 
 from registry.errors import RegistryError
 from registry.models import Policy, PolicyVersion
-from service import job_store
 from service.api.deps import StateDep
+from service.database import job_store
+from service.database.models import JOB_STATUSES, Job
 from service.errors import JobNotFound
-from service.models import JOB_STATUSES, Job
 from service.schemas.config_overrides import algo_names
 from service.schemas.jobs import JobKindName
 from service.schemas.json_schema import MAX_SAFE_INTEGER

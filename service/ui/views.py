@@ -25,7 +25,7 @@ from typing import Any
 from sqlalchemy import select
 
 from registry.database import Database
-from service.models import FINISHED_STATUSES, JobMetric
+from service.database.models import FINISHED_STATUSES, JobMetric
 
 TRAIN_WINDOW = 100
 """Training episodes averaged for the fallback success figure (as the summary's `..._last100`)."""

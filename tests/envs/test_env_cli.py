@@ -38,3 +38,17 @@ def test_bad_option_value_is_one_line_exit_2():
     lines = [line for line in result.stderr.splitlines() if line.startswith("error:")]
     assert lines == ["error: unknown hand 'tentacle'; choose one of: auto, learned"]
     assert "Traceback" not in result.stderr
+
+
+def test_commands_that_build_no_nicograsp_print_no_pybullet_banner():
+    """PyBullet prints `pybullet build time: ...` when imported; only building NicoGrasp imports it
+    (core/envs/__init__.py), so these commands print no banner."""
+    root = Path(__file__).resolve().parents[2]
+    imported = subprocess.run(
+        [sys.executable, "-c", "import pybullet"], capture_output=True, text=True, timeout=120, cwd=root
+    )
+    assert "pybullet build time" in imported.stdout + imported.stderr  # the banner this test looks for
+    for args, returncode in ((["--help"], 0), (["env", "list"], 0), (["train", "--env", "Foo-v9"], 2)):
+        result = subprocess.run([*DUALSYS, *args], capture_output=True, text=True, timeout=120, cwd=root)
+        assert result.returncode == returncode, (args, result.stderr)
+        assert "pybullet build time" not in result.stdout + result.stderr, (args, result.stderr)

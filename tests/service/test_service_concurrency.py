@@ -3,6 +3,7 @@ service with two API processes (one supervisor); on a SQLite file and on Postgre
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
@@ -21,14 +22,25 @@ def _start(layout: str, database_url: str, start_service: Callable[..., LiveServ
     return [first, second]
 
 
-def _api_pids(url: str) -> set[int]:
-    """The pids of the API processes answering 40 fresh connections, 20 at a time."""
+def _api_pids(url: str, *, want: int, timeout: float = 60.0, batches: int = 50) -> set[int]:
+    """The pids of the API processes that answered fresh connections, 20 at a time, batch after batch until
+    `want` distinct pids answered or `timeout` seconds / `batches` batches passed.
+
+    How the kernel spreads connections over the processes that accept on one socket is its business: under
+    load one process may take a whole batch (it failed once so, with 40 connections). Asking again until
+    both answered keeps the test independent of that, and it still fails when only one process exists."""
 
     def ask(_: int) -> int:
         return httpx.get(f"{url}/health", timeout=30).json()["pid"]
 
+    pids: set[int] = set()
+    deadline = time.monotonic() + timeout
     with ThreadPoolExecutor(max_workers=20) as pool:
-        return set(pool.map(ask, range(40)))
+        for _ in range(batches):
+            pids.update(pool.map(ask, range(20)))
+            if len(pids) >= want or time.monotonic() > deadline:
+                break
+    return pids
 
 
 @pytest.mark.parametrize("layout", ["two-services", "two-api-processes"])
@@ -39,7 +51,7 @@ def test_fifty_concurrent_submissions_run_exactly_once(
     first = services[0]
     urls = [service.url for service in services]
     if layout == "two-api-processes":
-        assert len(_api_pids(first.url)) == 2  # both API processes answer
+        assert len(_api_pids(first.url, want=2)) == 2  # both API processes answer
         health = httpx.get(f"{first.url}/health", timeout=30).json()
         assert health["running_jobs"] is False  # the API processes only queue; the parent runs jobs
 

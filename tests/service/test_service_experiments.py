@@ -2,7 +2,7 @@
 `workers` at a time), the report's numbers equal the library's report on the same run directories
 (and `dualsys experiments report` writes the same), a crash mid-experiment completes every cell exactly
 once, cancel stops the unfinished cells and DELETE removes a finished experiment, and bad files are 422s
-naming the key."""
+naming the key (an empty one as the OpenAPI schema says: `minLength: 1`)."""
 
 from __future__ import annotations
 
@@ -200,3 +200,20 @@ def test_cancel_then_delete_and_bad_files_are_422(
         assert client.get(f"/experiments/{created['id']}").status_code == 404
         assert client.get("/jobs", params={"experiment_id": created["id"]}).json()["count"] == 0
         assert not folder.exists()
+
+
+def test_an_empty_file_is_refused_as_the_schema_says(start_service: Callable[..., LiveService]) -> None:
+    """`{"content": ""}` is a 422, and the OpenAPI schema states it (`minLength: 1`), so a request the
+    schema calls valid is never refused (schemathesis found the mismatch)."""
+    service = start_service(workers=1)
+    with service.client(timeout=60) as client:
+        schema = client.get("/openapi.json").json()
+        content = schema["components"]["schemas"]["ExperimentCreate"]["properties"]["content"]
+        assert content["minLength"] == 1, content
+        response = client.post("/experiments", json={"content": ""})
+        assert response.status_code == 422, response.text
+        assert response.headers["content-type"] == "application/json"
+        body = response.json()
+        assert set(body) == {"detail", "errors"}, body
+        assert body["errors"][0]["field"] == "content" and body["detail"].startswith("content: "), body
+        assert client.get("/experiments", params={"limit": 5}).json()["count"] == 0  # nothing was queued

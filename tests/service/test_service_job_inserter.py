@@ -1,7 +1,7 @@
-"""Submissions written in batches (`service/job_inserter.py`, `job_store.create_jobs`): on SQLite and on
-PostgreSQL, concurrent submissions from one event loop are each inserted once, in order, with their run
-directories, in fewer transactions than submissions; a batch that fails fails each of its submissions and
-writes nothing."""
+"""Submissions written in batches (`service/database/job_inserter.py`, `job_store.create_jobs`): on SQLite
+and on PostgreSQL, concurrent submissions from one event loop are each inserted once, in order, with their
+run directories, in fewer transactions than submissions; a batch that fails fails each of its submissions
+and writes nothing."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ import pytest
 from sqlalchemy import text
 
 from registry.database import Database
-from service import job_store
-from service.job_inserter import JobInserter
-from service.migrate import upgrade_service
+from service.database import job_store
+from service.database.job_inserter import JobInserter
+from service.database.migrate import upgrade_service
 
 
 @pytest.fixture()

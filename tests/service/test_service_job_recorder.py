@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 
 from registry.database import Database
-from service import job_store
+from service.database import job_store
+from service.database.migrate import upgrade_service
+from service.database.models import JobMetric
 from service.errors import LostOwnership
-from service.job_recorder import JobRecorder, jsonable
-from service.migrate import upgrade_service
-from service.models import JobMetric
+from service.execution.job_recorder import JobRecorder, jsonable
 
 
 @pytest.fixture()

@@ -9,9 +9,9 @@ from collections.abc import Iterator
 import pytest
 
 from registry.database import Database
-from service import job_store
+from service.database import job_store
+from service.database.migrate import upgrade_service
 from service.errors import JobConflict, JobNotFound
-from service.migrate import upgrade_service
 
 
 @pytest.fixture()

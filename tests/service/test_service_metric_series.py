@@ -9,8 +9,8 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from registry.database import Database
-from service import job_store
-from service.migrate import upgrade_service
+from service.database import job_store
+from service.database.migrate import upgrade_service
 from tests.utils.live_service import LiveService
 from tests.utils.metric_rows import probe_like_record, record_episodes
 

@@ -7,8 +7,8 @@ from alembic.migration import MigrationContext
 from sqlalchemy import inspect
 
 from registry.database import Database
-from service.migrate import upgrade_service
-from service.models import ServiceBase
+from service.database.migrate import upgrade_service
+from service.database.models import ServiceBase
 
 
 def test_upgrade_head_builds_both_schemas_and_matches_the_models(database_url: str) -> None:

@@ -10,12 +10,12 @@ import pytest
 ray = pytest.importorskip("ray", reason="Ray is an optional extra (pip install 'dualsys[ray]')")
 
 from registry.database import Database  # noqa: E402
-from service import job_store  # noqa: E402
-from service.executors.ray_executor import RayExecutor  # noqa: E402
-from service.migrate import upgrade_service  # noqa: E402
-from service.models import JobMetric  # noqa: E402
+from service.database import job_store  # noqa: E402
+from service.database.migrate import upgrade_service  # noqa: E402
+from service.database.models import JobMetric  # noqa: E402
+from service.execution.executors.ray_executor import RayExecutor  # noqa: E402
+from service.execution.supervisor import Supervisor  # noqa: E402
 from service.settings import ServiceSettings  # noqa: E402
-from service.supervisor import Supervisor  # noqa: E402
 from tests.utils.live_service import wait_for  # noqa: E402
 
 

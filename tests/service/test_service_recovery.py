@@ -11,7 +11,7 @@ import signal
 from collections.abc import Callable
 
 from registry.database import Database
-from service import job_store
+from service.database import job_store
 from tests.utils.jobs import FINISHED, metrics, submit, wait_progress, wait_status
 from tests.utils.live_service import LiveService, wait_for
 

@@ -50,7 +50,7 @@ def test_train_spec_maps_to_config_overrides_like_the_cli() -> None:
 
 
 def test_only_a_resume_checkpoint_makes_a_job_resumable(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from service.job_kinds.catalogue import can_resume, job_kind
+    from service.execution.job_kinds.catalogue import can_resume, job_kind
 
     (tmp_path / "checkpoints").mkdir()
     (tmp_path / "checkpoints" / "best.pt").write_bytes(b"x")

@@ -12,9 +12,9 @@ from types import SimpleNamespace
 import pytest
 
 from registry.database import Database
-from service import job_store
-from service.job_recorder import JobRecorder
-from service.migrate import upgrade_service
+from service.database import job_store
+from service.database.migrate import upgrade_service
+from service.execution.job_recorder import JobRecorder
 from service.ui.views import SuccessTracker, age_text, job_level, job_method, job_row, summary_success
 
 

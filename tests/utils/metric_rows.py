@@ -11,7 +11,7 @@ from typing import Any
 from sqlalchemy import insert, update
 
 from registry.database import Database
-from service.models import Job, JobMetric
+from service.database.models import Job, JobMetric
 
 
 def probe_like_record(episode: int, *, evaluated: bool = False, offset: float = 0.0) -> dict[str, Any]:

@@ -10,8 +10,8 @@ from typing import Any
 from fastapi import APIRouter
 from sqlalchemy import text
 
-from service import job_store
 from service.api.deps import StateDep
+from service.database import job_store
 
 router = APIRouter(tags=["health"])
 

@@ -5,7 +5,8 @@ the event loop for SQLite (a sub-millisecond indexed query that never waits: WAL
 sparing the hop to the thread pool and back and the GIL hand-offs between the loop and the pool's
 threads; in the thread pool for PostgreSQL, whose round trips the threads overlap. `POST /jobs`
 validates on the loop and awaits its row from the process's `JobInserter`, which writes the submissions
-of each moment in one transaction (service/job_inserter.py), so the loop never waits for the write lock.
+of each moment in one transaction (service/database/job_inserter.py), so the loop never waits for the write
+lock.
 Work that may take longer (a train spec's config resolution, downloads, metrics pages) stays in the
 thread pool (docs/service.md, Performance).
 """
@@ -20,12 +21,12 @@ from fastapi.responses import FileResponse, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
 from registry.artifact_store import ARTIFACT_NAME, ArtifactStore
-from service import job_store
 from service.api.deps import MutationAuth, StateDep
 from service.api.events import job_events, parse_last_event_id
 from service.api.links import link, linked
 from service.api.presenters import artifact_public, job_public, json_response, metric_public
-from service.job_kinds import job_kind
+from service.database import job_store
+from service.execution.job_kinds import job_kind
 from service.schemas.errors import ErrorPublic
 from service.schemas.jobs import (
     ArtifactsPublic,

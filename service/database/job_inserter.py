@@ -28,8 +28,8 @@ from typing import Any
 from starlette.concurrency import run_in_threadpool
 
 from registry.database import Database
-from service import job_store
-from service.models import Job
+from service.database import job_store
+from service.database.models import Job
 
 log = logging.getLogger("dualsys.service")
 MAX_BATCH = 64

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from service.executors.base import Executor, WorkerExit
+from service.execution.executors.base import Executor, WorkerExit
 
 __all__ = ["Executor", "WorkerExit", "make_executor"]
 
@@ -13,9 +13,9 @@ def make_executor(settings, owner: str, database) -> Executor:  # type: ignore[n
     It shares the service's `Database`, whose in-process write lock then orders every write.
     """
     if settings.executor == "ray":
-        from service.executors.ray_executor import RayExecutor
+        from service.execution.executors.ray_executor import RayExecutor
 
         return RayExecutor(settings, owner, database)
-    from service.executors.local import LocalExecutor
+    from service.execution.executors.local import LocalExecutor
 
     return LocalExecutor(settings, owner, database)

@@ -8,7 +8,7 @@ from its checkpoint, a `prepare` step run at submission (resolving `name@alias` 
 
 from __future__ import annotations
 
-from service.job_kinds.base import JobContext, JobKind
-from service.job_kinds.catalogue import JOB_KINDS, job_kind
+from service.execution.job_kinds.base import JobContext, JobKind
+from service.execution.job_kinds.catalogue import JOB_KINDS, job_kind
 
 __all__ = ["JOB_KINDS", "JobContext", "JobKind", "job_kind"]

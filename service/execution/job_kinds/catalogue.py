@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from service.job_kinds.base import JobKind, after_nothing
-from service.job_kinds.deployment import (
+from service.execution.job_kinds.base import JobKind, after_nothing
+from service.execution.job_kinds.deployment import (
     attach_onnx,
     prepare_align,
     register_aligned,
@@ -13,9 +13,9 @@ from service.job_kinds.deployment import (
     run_eval,
     run_export,
 )
-from service.job_kinds.policy_input import resolve_policy_input
-from service.job_kinds.probe import prepare_probe, run_probe
-from service.job_kinds.train import prepare_train, run_train
+from service.execution.job_kinds.policy_input import resolve_policy_input
+from service.execution.job_kinds.probe import prepare_probe, run_probe
+from service.execution.job_kinds.train import prepare_train, run_train
 from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec, ProbeSpec, TrainSpec
 
 JOB_KINDS: dict[str, JobKind] = {

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 from pydantic import BaseModel
 
 from service.errors import SpecRejected
-from service.job_kinds.base import JobContext, Submission
+from service.execution.job_kinds.base import JobContext, Submission
 from service.schemas.specs import TrainSpec
 
 if TYPE_CHECKING:
@@ -58,8 +58,9 @@ def load_train_config(spec: TrainSpec):  # type: ignore[no-untyped-def]
 
 
 def run_experiment_cell(context: JobContext) -> dict[str, Any]:
-    """A cell of an experiment (service/experiment_store.py): `core.experiments.run_cell` on the cell's
-    own resolved config, in the cell's folder; it skips a done cell, resumes a partial one, else starts."""
+    """A cell of an experiment (service/database/experiment_store.py): `core.experiments.run_cell` on the
+    cell's own resolved config, in the cell's folder; it skips a done cell, resumes a partial one, else
+    starts."""
     from core.experiments import Cell, run_cell
 
     cell = context.resolved["cell"]

@@ -31,8 +31,8 @@ def run_job_stream(
     resume: bool,
     heartbeat_s: float,
 ) -> Iterator[dict[str, Any]]:
-    from service.job_execution import execute_job
-    from service.json_values import jsonable
+    from service.execution.job_execution import execute_job
+    from service.execution.json_values import jsonable
 
     items: queue.Queue[tuple[str, Any]] = queue.Queue()
 

@@ -1,4 +1,4 @@
-"""The local executor: each job runs in its own `python -m service.worker` process.
+"""The local executor: each job runs in its own `python -m service.execution.worker` process.
 
 A crash kills one job, not the service. The worker gets its job on stdin and streams its events
 back over a pipe; a thread per job (`follow_job`) writes them to the database, so only the service
@@ -23,13 +23,13 @@ from pathlib import Path
 from registry import PolicyRegistry
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
-from service.executors.base import WorkerExit, describe_returncode, drain_exits
-from service.job_follower import follow_job
-from service.job_recorder import JobRecorder
-from service.job_store import ClaimedJob
+from service.database.job_store import ClaimedJob
+from service.execution.executors.base import WorkerExit, describe_returncode, drain_exits
+from service.execution.job_follower import follow_job
+from service.execution.job_recorder import JobRecorder
 from service.settings import ServiceSettings
 
-PROJECT_ROOT = Path(__file__).resolve().parents[2]
+PROJECT_ROOT = Path(__file__).resolve().parents[3]
 
 
 @dataclass
@@ -83,7 +83,7 @@ class LocalExecutor:
             command = [
                 sys.executable,
                 "-m",
-                "service.worker",
+                "service.execution.worker",
                 "--events-fd",
                 str(write_end),
                 "--heartbeat-interval",

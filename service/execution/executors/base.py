@@ -7,7 +7,7 @@ import threading
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from service.job_store import ClaimedJob
+from service.database.job_store import ClaimedJob
 
 EXIT_INTERRUPTED = 75  # the worker stopped without a cancel request: re-queue to resume
 

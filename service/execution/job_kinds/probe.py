@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel
 
-from service.job_kinds.base import JobContext, Submission
+from service.execution.job_kinds.base import JobContext, Submission
 from service.schemas.specs import ProbeSpec
 
 if TYPE_CHECKING:

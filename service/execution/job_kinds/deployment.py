@@ -17,8 +17,8 @@ from pydantic import BaseModel
 
 from registry.references import parse_policy_ref
 from service.errors import SpecTargetNotFound
-from service.job_kinds.base import JobContext, Submission
-from service.job_kinds.policy_input import resolve_policy_input
+from service.execution.job_kinds.base import JobContext, Submission
+from service.execution.job_kinds.policy_input import resolve_policy_input
 from service.schemas.specs import AlignSpec, EvalSpec, ExportSpec
 
 if TYPE_CHECKING:

@@ -22,8 +22,8 @@ from sqlalchemy.orm.attributes import set_committed_value
 
 from registry.database import Database
 from registry.models import utc_now
+from service.database.models import FINISHED_STATUSES, Experiment, Job, JobArtifact, JobMetric
 from service.errors import JobConflict, JobNotFound
-from service.models import FINISHED_STATUSES, Experiment, Job, JobArtifact, JobMetric
 
 CLAIM_RETRIES = 20
 
@@ -90,7 +90,7 @@ def create_job(
 
 def create_jobs(database: Database, items: list[dict[str, Any]], *, lock_held: bool = False) -> list[Job]:
     """Insert queued jobs (`kind`, `spec`, `resolved`, `progress_total` each) in one write transaction,
-    in order; their rows. The batch path of `POST /jobs` (service/job_inserter.py); `lock_held`: the
+    in order; their rows. The batch path of `POST /jobs` (service/database/job_inserter.py); `lock_held`: the
     caller holds the database's write lock."""
     with database.write(lock_held=lock_held) as session:
         jobs = [

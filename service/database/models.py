@@ -28,7 +28,7 @@ FINISHED_STATUSES = frozenset({"succeeded", "failed", "cancelled"})
 
 
 class ServiceBase(DeclarativeBase):
-    """Declarative base of the service tables (migrated by service/migrations)."""
+    """Declarative base of the service tables (migrated by service/database/migrations)."""
 
     type_annotation_map: ClassVar[dict[Any, Any]] = {dict[str, Any]: JSON, datetime: UTCDateTime}
 

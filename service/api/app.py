@@ -23,11 +23,11 @@ from service.api.deps import ServiceState
 from service.api.errors import install_error_handlers
 from service.api.routes import experiments, health, jobs, policies
 from service.api.size_limit import BodySizeLimit
-from service.job_inserter import JobInserter
-from service.migrate import upgrade_service
+from service.database.job_inserter import JobInserter
+from service.database.migrate import upgrade_service
+from service.execution.supervisor import Supervisor
 from service.schemas.specs import warm_up_validators
 from service.settings import ServiceSettings
-from service.supervisor import Supervisor
 from service.ui.routes import install_dashboard
 
 log = logging.getLogger("dualsys.service")

@@ -26,9 +26,9 @@ from sqlalchemy.orm import Session
 from registry.artifact_store import ArtifactStore, artifact_kind
 from registry.database import Database
 from registry.models import utc_now
+from service.database.models import Job, JobArtifact, JobMetric
 from service.errors import LostOwnership
-from service.json_values import jsonable
-from service.models import Job, JobArtifact, JobMetric
+from service.execution.json_values import jsonable
 
 __all__ = ["HeartbeatReply", "JobRecorder", "jsonable", "upsert"]
 

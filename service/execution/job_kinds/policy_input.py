@@ -8,7 +8,7 @@ from pydantic import BaseModel
 
 from registry.errors import PolicyNotFound, RegistryError, VersionNotFound
 from service.errors import SpecRejected, SpecTargetConflict, SpecTargetNotFound
-from service.job_kinds.base import Submission
+from service.execution.job_kinds.base import Submission
 
 if TYPE_CHECKING:
     from registry import PolicyRegistry

@@ -24,9 +24,9 @@ from sqlalchemy import delete, func, select
 
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
-from service import job_store
+from service.database import job_store
+from service.database.models import FINISHED_STATUSES, Experiment, Job, JobArtifact, JobMetric
 from service.errors import JobConflict, JobNotFound, SpecRejected
-from service.models import FINISHED_STATUSES, Experiment, Job, JobArtifact, JobMetric
 
 EXPERIMENTS_AREA = "experiments"
 _FIELD = re.compile(r"^(?:bad value for|unknown key|missing key) '?([A-Za-z0-9_.\[\]]+)'?")

@@ -32,11 +32,11 @@ from sqlalchemy import select
 
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
-from service import job_store
-from service.executors import Executor, WorkerExit, make_executor
-from service.executors.base import EXIT_INTERRUPTED
-from service.job_kinds.catalogue import can_resume, job_kind
-from service.models import Job
+from service.database import job_store
+from service.database.models import Job
+from service.execution.executors import Executor, WorkerExit, make_executor
+from service.execution.executors.base import EXIT_INTERRUPTED
+from service.execution.job_kinds.catalogue import can_resume, job_kind
 from service.settings import ServiceSettings
 
 log = logging.getLogger("dualsys.service.supervisor")
@@ -70,13 +70,14 @@ def owner_is_dead_here(owner: str | None) -> bool:
 
 
 def _is_our_worker(pid: int, run_dir: Path) -> bool:
-    """A `service.worker` process whose working directory is the job's run directory (Linux /proc)."""
+    """A `service.execution.worker` process whose working directory is the job's run directory
+    (Linux /proc)."""
     try:
         command = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
         cwd = Path(os.readlink(f"/proc/{pid}/cwd"))
     except OSError:
         return False
-    return b"service.worker" in command and cwd == run_dir
+    return b"service.execution.worker" in command and cwd == run_dir
 
 
 class Supervisor:

@@ -6,7 +6,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from service.job_kinds import JobContext, job_kind
+from service.execution.job_kinds import JobContext, job_kind
 
 
 def execute_job(

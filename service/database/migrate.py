@@ -1,6 +1,6 @@
 """`alembic upgrade head` for the whole service database, run programmatically at start.
 
-Registry tables first (`registry/migrations`), then the service's (`service/migrations`, version
+Registry tables first (`registry/migrations`), then the service's (`service/database/migrations`, version
 table `alembic_version_service`). The service never calls `create_all` on a live database.
 """
 

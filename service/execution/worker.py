@@ -1,7 +1,7 @@
-"""One job's process (local executor): `python -m service.worker --events-fd N ...`, job on stdin.
+"""One job's process (local executor): `python -m service.execution.worker --events-fd N ...`, job on stdin.
 
 The process reads its job (kind, spec, resolved inputs, run directory, resume flag) as one JSON
-line from stdin, runs the kind's function, and writes events (see `service.job_follower`) as JSON
+line from stdin, runs the kind's function, and writes events (see `service.execution.job_follower`) as JSON
 lines to the pipe `--events-fd`: every episode record, a heartbeat each `--heartbeat-interval`
 seconds, and how it ended. After each episode record it waits for the service's acknowledgement
 (a line on stdin), so the record is in the database before the job goes on to checkpoint it.
@@ -28,8 +28,8 @@ import traceback
 from pathlib import Path
 from typing import Any, TextIO
 
-from service.job_execution import execute_job
-from service.json_values import jsonable
+from service.execution.job_execution import execute_job
+from service.execution.json_values import jsonable
 
 EXIT_DONE = 0
 EXIT_ORPHANED = 4
@@ -64,7 +64,7 @@ class EventPipe:
 
 
 def _parse(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="python -m service.worker", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m service.execution.worker", description=__doc__)
     parser.add_argument("--events-fd", type=int, required=True, help="Write end of the events pipe.")
     parser.add_argument("--heartbeat-interval", type=float, default=1.0)
     parser.add_argument("--parent-pid", type=int, default=0)

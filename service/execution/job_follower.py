@@ -24,10 +24,10 @@ from pathlib import Path
 from typing import Any, Literal
 
 from registry import PolicyRegistry, RegistryError
+from service.database.job_store import ClaimedJob
 from service.errors import LostOwnership
-from service.job_kinds import job_kind
-from service.job_recorder import JobRecorder
-from service.job_store import ClaimedJob
+from service.execution.job_kinds import job_kind
+from service.execution.job_recorder import JobRecorder
 
 
 @dataclass(frozen=True)

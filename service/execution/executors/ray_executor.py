@@ -20,13 +20,13 @@ from typing import Any
 from registry import PolicyRegistry
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
-from service.executors.base import WorkerExit, drain_exits
-from service.job_follower import follow_job
-from service.job_recorder import JobRecorder
-from service.job_store import ClaimedJob
+from service.database.job_store import ClaimedJob
+from service.execution.executors.base import WorkerExit, drain_exits
+from service.execution.job_follower import follow_job
+from service.execution.job_recorder import JobRecorder
 from service.settings import ServiceSettings
 
-PROJECT_ROOT = Path(__file__).resolve().parents[2]
+PROJECT_ROOT = Path(__file__).resolve().parents[3]
 EXIT_CANCELLED = -9
 
 
@@ -62,7 +62,7 @@ class RayExecutor:
                 options["num_cpus"] = settings.ray_num_cpus
                 options["runtime_env"] = {"env_vars": {"PYTHONPATH": str(PROJECT_ROOT)}}
             ray.init(**options)
-        from service.executors.ray_task import run_job_stream
+        from service.execution.executors.ray_task import run_job_stream
 
         self._remote = ray.remote(num_cpus=1, max_retries=0)(run_job_stream)
         self.database = database or Database(settings.database_url)

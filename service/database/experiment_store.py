@@ -132,7 +132,7 @@ def _cell_spec(cell: Any) -> dict[str, Any]:
     if names is None or cell.algo in names:  # a registered cell runner's method (an SB3 peer) is not
         spec["algo"] = cell.algo
     ac = cell.config.get("agent", {}).get("ac")
-    if ac in ("ddpg", "cacla"):
+    if ac in ("ddpg", "cacla", "td3", "sac"):
         spec["ac"] = ac
     return spec
 

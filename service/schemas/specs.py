@@ -99,7 +99,9 @@ class TrainSpec(SpecBase):
         "[8, 8]}; every key of core.config with its type and range.",
         json_schema_extra=_overrides_schema,
     )
-    ac: Literal["ddpg", "cacla"] | None = Field(default=None, description="Actor-critic update rule (--ac).")
+    ac: Literal["ddpg", "cacla", "td3", "sac"] | None = Field(
+        default=None, description="The learner (--ac): ddpg, cacla, td3 or sac."
+    )
 
     @field_validator("profile")
     @classmethod

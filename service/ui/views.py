@@ -52,7 +52,7 @@ def _config_value(job: Any, section: str, key: str) -> Any:
 def job_method(job: Any) -> str | None:
     algo = _config_value(job, "run", "algo") or (job.spec or {}).get("algo")
     ac = _config_value(job, "agent", "ac") or (job.spec or {}).get("ac")
-    if algo and ac and algo in ("ddpg", "cacla") and ac != algo:
+    if algo and ac and algo in ("ddpg", "cacla", "td3", "sac") and ac != algo:
         return f"{algo} ({ac})"
     return algo
 
@@ -249,6 +249,11 @@ DIAGNOSTIC_LAYOUT: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("ITM size", "nodes", ("dual/itm_nodes",)),
     ("imagined transitions", "per episode", ("dual/imagined",)),
     ("intrinsic reward", "reward", ("dual/intrinsic_reward",)),
+    (
+        "critic's start-state value vs discounted return earned",
+        "discounted return",
+        ("charts/start_value", "charts/discounted_return"),
+    ),
 )
 """The job page's diagnostics panels: (title, y-axis unit, metric keys drawn together)."""
 
@@ -266,6 +271,8 @@ def diagnostic_groups() -> list[dict[str, Any]]:
         {"title": title, "unit": unit, "series": [[key, labels.get(key, key)] for key in keys]}
         for title, unit, keys in DIAGNOSTIC_LAYOUT
     ]
+    labels.update({"charts/start_value": "critic's value of the start state",
+                   "charts/discounted_return": "discounted return earned"})
     placed = {key for _, _, keys in DIAGNOSTIC_LAYOUT for key in keys}
     groups += [
         {"title": label, "unit": "", "series": [[key, label]]}

@@ -221,7 +221,10 @@
     }
     const n = rec.episode.length;
     Object.keys(d).forEach(function (key) {
-      if (key.indexOf("dual/") === 0 && !rec.dual[key]) rec.dual[key] = [];
+      // the dual-system diagnostics and the overestimation pair (the critic's start value, the return earned)
+      const diagnostic = key.indexOf("dual/") === 0 || key === "charts/start_value" ||
+        key === "charts/discounted_return";
+      if (diagnostic && !rec.dual[key]) rec.dual[key] = [];
     });
     Object.keys(rec.dual).forEach(function (key) {
       const column = rec.dual[key];

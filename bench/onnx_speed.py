@@ -52,7 +52,9 @@ def measure(policy: Path | str | None = None, repeats: int = 2000, threads: int 
     else:
         config = Config()
         torch.manual_seed(0)
-        network = PolicyNetwork(Encoder(config.net), Actor(config.net, 1)).eval()
+        net = config.net
+        actor = Actor(net.latent_dim, 1, (net.actor_hidden,), net.actor_activation)
+        network = PolicyNetwork(Encoder(net), actor).eval()
         obs_shape, arch = OBS_SHAPE, config.net.arch
     rng = np.random.default_rng(0)
     one = rng.integers(0, 256, size=(1, *obs_shape), dtype=np.uint8)

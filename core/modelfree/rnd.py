@@ -21,6 +21,7 @@ torchvision, which do not fit this project's pinned CPU torch.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -71,8 +72,10 @@ class RandomNetworkDistillation(nn.Module):
         super().__init__()
         torch.manual_seed(generator_seed)  # the target's random weights come from the run's seed
         width, out = config.net.latent_dim, config.agent.rnd_dim
-        self.target = nn.Sequential(make_encoder(config.net, spec), nn.Linear(width, out))
-        self.predictor = nn.Sequential(make_encoder(config.net, spec), nn.Linear(width, out))
+        # RND's own networks have the shape of a learned encoder (ReLU latent) whatever the learner's encoder.
+        net = dataclasses.replace(config.net, encoder="learned", latent_activation="relu")
+        self.target = nn.Sequential(make_encoder(net, spec), nn.Linear(width, out))
+        self.predictor = nn.Sequential(make_encoder(net, spec), nn.Linear(width, out))
         self.target.requires_grad_(False)
         self.prepare = self.target[0].prepare
         image = spec.obs_kind == "image"

@@ -124,7 +124,7 @@ class DualSystem:
         terminated: bool,
     ) -> float:
         """Lines 22 and 25: the Eq. 8 error of M_n, R_n before their update, LP of n, one Eq. 5 step; returns
-        r_int of the transition (line 22, ``dual.intrinsic_signal``)."""
+        r_int of the transition (line 22, ``dual.intrinsic``)."""
         feedback = self.world.learn_transition(node, phi[0], torch.as_tensor(action, dtype=torch.float32),
                                                reward, next_phi[0], terminated)
         self.counters.errors.append(feedback.error)

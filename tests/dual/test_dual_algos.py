@@ -222,8 +222,8 @@ def test_imagination_update_is_algorithm_3_lines_34_to_37(ac: str, actor_on_imag
     ref.critic_optimizer.zero_grad(set_to_none=True)
     (cfg.lambda_q * (y_all - ref.critic(phi_all, a_all)).pow(2).mean()).backward()
     ref.critic_optimizer.step()
-    # Line 36: the actor strategy on both minibatches' latents (dual.imagination_actor = all) or on the pixel
-    # minibatch's alone (= real); line 37: targets.
+    # Line 36: the actor strategy on both minibatches' latents (what I2A asks for) or on the pixel minibatch's
+    # alone; line 37: targets.
     with torch.no_grad():
         phi_after = ref.encoder(obs)
     if actor_on_imagined:
@@ -431,26 +431,3 @@ def test_i2a_imagines_at_learn_time_from_the_current_encoder_and_stores_nothing(
     first_steps = [row for row in batch.latent if any(torch.allclose(row, c, atol=1e-6) for c in current)]
     assert first_steps  # rollouts start at the minibatch's latents under the encoder as it is now
     assert agent.dual.counters.imagined >= batch.latent.shape[0]
-
-
-def test_imagined_reward_carries_the_intrinsic_reward_of_the_transition_when_asked() -> None:
-    from core.dual.imagination import RegionModels
-
-    agent = _agent("i2a", "agent.learning_starts=4", "dual.imagination_reward=with_intrinsic")
-    agent.begin_episode(_obs(5))
-    for step in range(30):
-        _step(agent, _obs(step % 3))
-        agent.update_after_step()
-    world = agent.dual.world
-    world.heldout.progress[:] = 0.5  # every region improving: r_int = c · 0.5 / s
-    with torch.no_grad():
-        phi = agent.learner.encode(torch.from_numpy(np.stack([_obs(0), _obs(1)])))
-    regions = world.nearest_many(phi)
-    action = torch.zeros(2, 1)
-    plain = RegionModels(world, np.random.default_rng(0)).predict(regions, phi, action)
-    bonus = RegionModels(world, np.random.default_rng(0), intrinsic=True).predict(regions, phi, action)
-    unit = world.unit.scale if world.config.error_norm == "l2" else world.unit.scale ** 2
-    expected = world.config.intrinsic_scale * 0.5 / unit
-    assert expected != 0.0
-    torch.testing.assert_close(bonus.reward - plain.reward, torch.full((2,), expected), rtol=1e-5, atol=1e-7)
-    torch.testing.assert_close(bonus.next_latent, plain.next_latent)

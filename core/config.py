@@ -231,111 +231,82 @@ class DualConfig:
     """Dual-system section (ITM, learning progress, world-model bank, meta-controller, imagination).
 
     Used by the dual-system methods (im2c, i2a, mve, cmc, la-imagination); plain ddpg/cacla ignore it.
-    The defaults are the ``default`` profile: the repairs of docs/dual-system.md ("Mechanisms") are on. The
-    ``paper`` profile sets the literal reading of the paper and the released code (``_paper_dual``).
+    Each mechanism has one field naming its reading (`core.dual.readings`): ``paper`` (the literal text),
+    ``released`` (the authors' released code, where it differs) or ``repaired`` (docs/dual-system.md,
+    "Mechanisms"). The defaults are the ``default`` profile: every mechanism repaired. The ``paper`` profile
+    (``_paper_dual``) reads the text, and the released code where the text is silent.
     """
 
+    regions: Literal["paper", "released", "repaired"] = "repaired"
+    """ITM regions (Section 2.3.1): paper — the raw latent, squared L2 compared with e_max (the text);
+    released — the raw latent, L2; repaired — the latent divided by its running RMS spread, L2."""
     e_max: float = 1.0
     """ITM mapping resolution e_max (Section 4.1.1: 6 in latent units); in units of the latent's RMS spread
-    when ``region_space`` is normalised (default 1)."""
-    region_space: Literal["latent", "normalised"] = "normalised"
-    """Where the ITM lives: the raw latent (paper) or the latent divided by its running RMS spread."""
-    model_space: Literal["latent", "normalised"] = "normalised"
-    """What the local models read and predict: the raw latent (paper) or φ / its RMS spread s, in s units."""
+    with ``regions = repaired`` (default 1)."""
     region_prune_after: int = 3000
     """Remove an ITM node that has not been the best match for this many states (0: never, paper)."""
     e_max_relative: float | None = None
     """Scale-free e_max (dual/itm_resolution.py): when set to ρ, e_max = ρ · the median pairwise L2 distance
     among 256 of the last 2048 latents, refreshed every 256 states; None: absolute e_max (paper, released).
-    Set, it puts the map in raw latent coordinates whatever ``region_space`` says (it is the raw latent's
-    scale-free resolution, the first study's ablation)."""
-    itm_distance: Literal["l2", "squared"] = "l2"
-    """Distance compared with e_max: l2 (released code) or squared L2 (paper text, Section 2.3.1)."""
+    It is the raw latent's scale-free resolution (the first study's ablation): set, it needs ``regions``
+    paper or released (`check_config`)."""
+    reliability: Literal["paper", "released", "repaired"] = "repaired"
+    """Arbitration's reliability and Eq. 8-9 (Section 2.3.2): paper — LP ≥ 0 of squared errors, unnormalised,
+    a new node unreliable until W+1 means exist; released — LP ≥ 0 of error norms, LP divided by the max
+    mean, the oldest mean 0 at first; repaired — the held-out error and progress verdict (error norms)."""
     lp_sigma: int = 40
     """σ: window of recent prediction errors per node (Eq. 8)."""
     lp_window: int = 20
     """W: history of window means used by LP (Eq. 9)."""
-    lp_normalise: bool = True
-    """Divide LP by the max of the history of means (released code)."""
-    lp_warmup: Literal["zero_oldest", "unreliable"] = "zero_oldest"
-    """Before W+1 window means exist: the oldest mean counts as 0, so a new node starts with LP < 0
-    (released code), or the node is unreliable with r_int = 0 (paper reading of Eq. 9)."""
-    error_norm: Literal["l2", "squared"] = "l2"
-    """Prediction error as norms (released code) or squared norms (paper Eq. 8)."""
-    reliability: Literal["lp", "heldout"] = "heldout"
-    """Arbitration's reliability: LP ≥ 0 of the error stream (Eq. 9, paper) or held-out error and progress."""
-    heldout_size: int = 48
-    """Held-out transitions kept per node for ``reliability = heldout`` (its newest ones, a ring)."""
-    heldout_every: int = 4
-    """Every k-th real transition of a node goes to its held-out set instead of its training data."""
-    reliability_lag: int = 100
-    """Model updates between parameter snapshots; held-out progress compares with one L..2L updates old."""
-    reliability_z: float = 3.0
-    """Margin, in standard errors of the paired held-out difference, for "improving" and "worsening"."""
-    accurate_ratio: float = 0.5
-    """A model is accurate when its held-out error is at most this share of the no-change predictor's."""
-    intrinsic_signal: Literal["neg_lp", "progress"] = "progress"
-    """r_int: −c·LP of the error stream (Alg. 2 line 22, paper) or +c·held-out progress / no-change error."""
-    intrinsic_region: Literal["source", "destination"] = "destination"
-    """Region whose LP rewards a transition: the one it started in (paper) or the one the action led into."""
+    intrinsic: Literal["paper", "repaired"] = "repaired"
+    """r_int (Alg. 2 line 22): paper (also the released code) — −c·LP of the region the transition started
+    in; repaired — +c·held-out progress / the latent's spread, of the region the action led into."""
     intrinsic_scale: float = 0.1
     """Scale c of r_int (paper: 1, the ``paper`` profile). Default 0.1: at 1 with the paper's signal the
     summed r_int of an episode outweighs the ±1 terminal reward and the agent lingers (docs/dual-system)."""
+    world_models: Literal["paper", "released", "repaired"] = "repaired"
+    """Local models M_n, R_n (Eq. 5): paper — raw latent in and out, φ̂′ itself, linear heads (Section
+    4.1.1), a fresh model per new node; released — as paper with a sigmoid latent and tanh reward head;
+    repaired — φ / s in, the change in units of s out, linear, a new node copies its parent's model."""
     model_hidden: int = 20
     """Hidden tanh units of each local world model M_n, R_n."""
     model_lr: float = 1e-3
     """Adam learning rate of the local models."""
-    model_output: Literal["linear", "released"] = "linear"
-    """Local-model output units: linear (Section 4.1.1) or sigmoid latent / tanh reward (released code). The
-    released form applies to the paper's absolute model in raw latent units only; a delta or normalised model
-    is always linear (dual/world_models.py, ``effective_model_output``)."""
-    model_target: Literal["absolute", "delta"] = "delta"
-    """What M_n outputs: φ̂′ itself (Eq. 5, paper) or the change, φ̂′ = φ + M_n(φ, a)."""
-    model_termination: bool = True
-    """A termination head on each local model (BCE on the real ``terminated``) for imagined ``done`` flags."""
     model_batch: int = 16
     """Samples per local-model update: the new transition and the node's recent ones (paper, released: 1)."""
     model_memory: int = 256
     """Real transitions kept per node; each update samples ``model_batch − 1`` of them (0: the newest)."""
-    new_node_model: Literal["fresh", "parent"] = "parent"
-    """A new ITM node's model: freshly initialised (released code) or copied from its parent node."""
     refit_every: int = 25
     """Refit the local models every N real steps on ``refit_batch`` replayed transitions re-encoded by the
     current encoder, each to its nearest node (core/dual/world_models.py ``refit``). 0: never (paper)."""
     refit_batch: int = 256
     """Transitions per refit step (one Eq. 5 Adam step of each node the batch touches)."""
     arbitration: Literal["lp", "model_free"] = "lp"
-    """Meta-controller: reliability-based arbitration (Alg. 2 lines 12-19), or ``model_free`` — an ablation
-    that always acts with μ(φ) (no MPC, no I2A imagination), keeping regions, local models and r_int."""
+    """Meta-controller: reliability-based arbitration (Alg. 2 lines 12-19, by ``reliability``), or
+    ``model_free`` — an ablation that always acts with μ(φ) (no MPC, no I2A imagination), keeping regions,
+    local models and r_int."""
+    planner: Literal["paper", "released", "repaired"] = "repaired"
+    """Gradient MPC (Eq. 6-7): paper — (R* − Σ r̂)², plain gradient steps, only the executed action clipped;
+    released — ½ Σ (1 − r̂)² otherwise as paper; repaired — (R* − Σ r̂)², the gradient scaled to length
+    ``plan_lr``, every plan action clipped after every step."""
     d_max: int = 6
     """Maximum planning depth D_max (Algorithm 1)."""
     plan_steps: int = 10
     """K gradient steps of plan optimisation (Eq. 7)."""
     plan_lr: float = 0.1
-    """α_plan of Eq. 7 (paper: 1e-3); adam, normalised: a step length in action units."""
-    plan_optimiser: Literal["sgd", "normalised", "adam"] = "normalised"
-    """Eq. 7's step: plain gradient (paper), the gradient scaled to length α, or Adam on the plan."""
-    plan_clip: Literal["executed", "every_step"] = "every_step"
-    """Clip only the executed action to [−1, 1] (paper) or every plan action after every step (projection)."""
-    plan_objective: Literal["sum", "per_step"] = "sum"
-    """sum: (R* − Σ r̂)² (paper Eq. 6); per_step: ½ Σ (1 − r̂)² (released code)."""
+    """α_plan of Eq. 7 (paper: 1e-3); with ``planner = repaired`` a step length in action units."""
     r_star: float = 1.0
     """Desired return R* of Eq. 6."""
-    imagination_source: Literal["act_time", "learn_time"] = "learn_time"
-    """Imagined transitions: the act-time rollout stored in B_latent (Alg. 3 line 17, paper) or rollouts from
-    the pixel minibatch's states, encoded by the current encoder, made at each update and never stored."""
-    imagination_gate: Literal["none", "no_change_ratio"] = "no_change_ratio"
-    """Keep an imagined transition with probability 1 − (node's held-out error / no-change error), or all."""
+    imagination: Literal["paper", "repaired", "repaired_no_termination"] = "repaired"
+    """I2A's imagined transitions (Alg. 3): paper — the act-time rollout stored in B_latent (line 17), every
+    transition kept, no termination head; repaired — rollouts from the pixel minibatch's states, encoded by
+    the current encoder, made at each update and never stored, gated by the node's held-out error over the
+    no-change error, ``done`` from a termination head on each local model (BCE on the real ``terminated``);
+    repaired_no_termination — repaired without the head (what the literal IM2C of mountaincar-repairs ran)."""
     imagination_max_ratio: float = 0.5
     """The gate keeps a transition with probability clip(1 − ratio / this, 0, 1): none from a node whose
     held-out error is at or above this fraction of the no-change error (1: the gate as first built; 0.5 chosen
     on MountainCar tuning seeds 100-102, docs/dual-system.md "Imagination in the loop")."""
-    imagination_reward: Literal["model", "with_intrinsic"] = "model"
-    """Reward of an imagined transition: the model's r̂ (paper: the bank learns r_ext only) or r̂ + r_int of
-    the transition, as a real transition carries r + r_int in the replay (learn-time imagination only)."""
-    imagination_actor: Literal["all", "real"] = "all"
-    """Latents the actor's step sees (Alg. 3 line 36): real and imagined (paper), or the real ones only —
-    imagination then feeds the critic alone (docs/dual-system.md, "Imagination in the loop")."""
     pixel_buffer_size: int = 60_000
     """I2A pixel replay capacity B_pixel."""
     latent_buffer_size: int = 200_000
@@ -348,6 +319,56 @@ class DualConfig:
     """DDPG+CMC's fixed MPC horizon H (Section 4.1.2: 3)."""
     imagination_prob_scale: float = 1.0
     """LA-Imagination: scale of the rollout probability (inversely proportional to local error)."""
+
+
+OLD_DUAL_SWITCHES: dict[str, tuple[str, str]] = {
+    "region_space": ("regions", "space"),
+    "itm_distance": ("regions", "distance"),
+    "model_space": ("world_models", "space"),
+    "model_target": ("world_models", "target"),
+    "model_output": ("world_models", "output"),
+    "new_node_model": ("world_models", "new_node"),
+    "reliability": ("reliability", "signal"),
+    "error_norm": ("reliability", "error_norm"),
+    "lp_normalise": ("reliability", "lp_normalise"),
+    "lp_warmup": ("reliability", "lp_warmup"),
+    "intrinsic_signal": ("intrinsic", "signal"),
+    "intrinsic_region": ("intrinsic", "region"),
+    "plan_objective": ("planner", "objective"),
+    "plan_optimiser": ("planner", "optimiser"),
+    "plan_clip": ("planner", "clip"),
+    "imagination_source": ("imagination", "source"),
+    "imagination_gate": ("imagination", "gate"),
+    "model_termination": ("imagination", "termination"),
+}
+"""The dual switches that became one reading per mechanism (`core.dual.readings`): old key → (the field
+naming the mechanism's reading, the reading's attribute that holds the old value). ``dual.reliability`` kept
+its name with new values (lp/heldout → paper, released/repaired)."""
+
+OLD_DUAL_CONSTANTS: dict[str, str] = {
+    "heldout_size": "size",
+    "heldout_every": "every",
+    "reliability_lag": "lag",
+    "reliability_z": "z",
+    "accurate_ratio": "accurate_ratio",
+}
+"""The held-out reliability's old keys, now the constants of `core.dual.readings.HeldOut`: old key → its
+attribute there."""
+
+OLD_DUAL_REJECTED: dict[str, Any] = {"imagination_reward": "model", "imagination_actor": "all"}
+"""Old keys of readings tried and rejected (docs/dual-system.md, "What was tried"): old key → the one value
+that remains (what every reading does)."""
+
+
+def _removed_key_hint(name: str) -> str | None:
+    """What replaced the removed ``dual.<name>`` (the hint of `set_value`'s ``unknown config key``)."""
+    if name in OLD_DUAL_SWITCHES:
+        return f"now dual.{OLD_DUAL_SWITCHES[name][0]}, a reading of core/dual/readings.py"
+    if name in OLD_DUAL_CONSTANTS:
+        return "now a constant of the held-out reliability, core/dual/readings.py HeldOut"
+    if name in OLD_DUAL_REJECTED:
+        return "removed: a rejected reading, docs/dual-system.md"
+    return None
 
 
 @dataclass
@@ -423,28 +444,23 @@ def _paper_profile() -> Config:
 
 
 def _paper_dual() -> DualConfig:
-    """The dual section read literally: the paper's text, the released code where the text is silent, every
-    repair of docs/dual-system.md ("Mechanisms") off."""
+    """The dual section read literally: the paper's text, the released code where the text is silent (the
+    regions' L2 distance, the error norms and LP's normalisation), every repair of docs/dual-system.md
+    ("Mechanisms") off."""
     return DualConfig(
+        regions="released",
         e_max=6.0,
-        region_space="latent",
-        model_space="latent",
         region_prune_after=0,
-        reliability="lp",
-        intrinsic_signal="neg_lp",
-        intrinsic_region="source",
+        reliability="released",
+        intrinsic="paper",
         intrinsic_scale=1.0,
-        model_target="absolute",
-        model_termination=False,
+        world_models="paper",
         model_batch=1,
         model_memory=0,
-        new_node_model="fresh",
         refit_every=0,
+        planner="paper",
         plan_lr=1e-3,
-        plan_optimiser="sgd",
-        plan_clip="executed",
-        imagination_source="act_time",
-        imagination_gate="none",
+        imagination="paper",
     )
 
 
@@ -539,6 +555,9 @@ def set_value(config: Config, dotted_key: str, raw: Any) -> None:
         raise ConfigError(f"unknown config key {dotted_key!r} (use section.field, e.g. agent.batch_size)")
     hints = typing.get_type_hints(type(section))
     if field_name not in hints:
+        hint = _removed_key_hint(field_name) if section_name == "dual" else None
+        if hint is not None:
+            raise ConfigError(f"unknown config key {dotted_key!r} ({hint})")
         known = ", ".join(f.name for f in dataclasses.fields(section))
         raise ConfigError(f"unknown config key {dotted_key!r} (fields of {section_name}: {known})")
     setattr(section, field_name, coerce(raw, hints[field_name], dotted_key))
@@ -659,9 +678,6 @@ _POSITIVE_INTS = (
     "dual.latent_buffer_size",
     "dual.latent_batch_size",
     "dual.refit_batch",
-    "dual.heldout_size",
-    "dual.heldout_every",
-    "dual.reliability_lag",
 )
 _NON_NEGATIVE = (
     "run.seed",
@@ -681,8 +697,6 @@ _NON_NEGATIVE = (
     "dual.refit_every",
     "dual.region_prune_after",
     "dual.model_memory",
-    "dual.reliability_z",
-    "dual.accurate_ratio",
 )
 
 
@@ -723,6 +737,11 @@ def check_config(config: Config) -> None:
     for key in _POSITIVE:
         if value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
+    if config.dual.e_max_relative is not None and config.dual.regions == "repaired":
+        raise ConfigError(
+            "bad value for dual.e_max_relative: it puts the map in raw latent coordinates; "
+            "set dual.regions to paper or released with it"
+        )
     if not config.net.conv_channels or min(config.net.conv_channels) < 1:
         raise ConfigError("bad value for net.conv_channels: needs at least one positive channel count")
     if not config.net.mlp_hidden or min(config.net.mlp_hidden) < 1:

@@ -84,7 +84,9 @@ def build_config(
         saved = resume / "config.yaml"
         if not saved.is_file():
             raise ConfigError(f"cannot resume {resume}: no config.yaml (not a dualsys run directory)")
-        config = Config.from_dict(read_config_file(saved))
+        from core.dual.readings import upgrade_stored
+
+        config = Config.from_dict(upgrade_stored(read_config_file(saved)))
         if config_file is not None:
             config = Config.from_dict(read_config_file(config_file), base=config)
         for item in overrides:

@@ -126,7 +126,7 @@ class DualSystem:
     # -- observing (Alg. 2 lines 21-25) ----------------------------------------------------------
     def learn(self, next_phi: torch.Tensor, transition: Transition) -> float:
         """Lines 22 and 25 for the step :meth:`locate` began: the Eq. 8 error of M_n, R_n before their update,
-        LP of n, one Eq. 5 step; returns r_int of the transition (line 22, ``dual.intrinsic_signal``)."""
+        LP of n, one Eq. 5 step; returns r_int of the transition (line 22, ``dual.intrinsic``)."""
         if self._phi is None:
             raise RuntimeError("observe() without a preceding act(obs, explore=True)")
         phi, reward = self._phi, transition.reward

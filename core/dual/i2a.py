@@ -11,9 +11,10 @@ system. One training step, in the box's order:
 - ``update_after_step`` / ``update_after_episode``: lines 34-37, the learner's
   :meth:`~core.modelfree.learners.base.Learner.update_with_imagination` on a pixel minibatch and a latent one.
 
-Where the latent minibatch comes from is ``dual.imagination_source``: ``act_time`` (the paper: B_latent,
-filled at line 17) or ``learn_time`` (the repair: rollouts from the pixel minibatch's states, encoded by the
-current encoder, made at each update and never stored; ``core.dual.imagination.imagine``). DDPG+LA-Imagination
+Where the latent minibatch comes from is ``dual.imagination`` (`core.dual.readings.Imagination`): the
+act-time rollouts (``paper``: B_latent, filled at line 17) or learn-time ones (``repaired``: rollouts from
+the pixel minibatch's states, encoded by the current encoder, made at each update and never stored;
+``core.dual.imagination.imagine``). DDPG+LA-Imagination
 is this agent with model-free acting and LA-Imagination's rollouts (``core.dual.baselines``).
 """
 
@@ -56,7 +57,7 @@ class I2A(LearnerAgent):
         self.replay = PixelReplay(dual.pixel_buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)
         self.latent_replay = LatentReplay(dual.latent_buffer_size, self.learner.latent_dim, spec.action_dim)
         self.imagination: Imagination = imagination
-        self.act_time = dual.imagination_source == "act_time"
+        self.act_time = self.dual.world.readings.imagination.source == "act_time"
 
     def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
         phi = self.encode(obs)  # line 9
@@ -87,9 +88,7 @@ class I2A(LearnerAgent):
         batch = to_device(batch, self.device)
         latent = None if latent is None else to_device(latent, self.device)
         self.updates += 1
-        return self.learner.update_with_imagination(
-            batch, latent, actor_on_imagined=self.config.dual.imagination_actor == "all"
-        )
+        return self.learner.update_with_imagination(batch, latent)
 
     def _imagine_from(self, obs: torch.Tensor) -> LatentBatch | None:
         """Learn-time imagination: rollouts from the minibatch's states, encoded by the current encoder."""
@@ -97,8 +96,7 @@ class I2A(LearnerAgent):
         with torch.no_grad():
             phi = self.learner.encode(obs.to(self.device)).cpu()
         stop = "reliable" if self.imagination == "adaptive" else "la"
-        model = RegionModels(self.dual.world, self.rng, stop=stop, la_scale=dual.imagination_prob_scale,
-                             intrinsic=dual.imagination_reward == "with_intrinsic")
+        model = RegionModels(self.dual.world, self.rng, stop=stop, la_scale=dual.imagination_prob_scale)
         latent = imagine(phi, model, self.actor, dual.d_max, self.rng, dual.latent_batch_size)
         self.dual.count_imagined(0 if latent is None else latent.latent.shape[0])
         return latent

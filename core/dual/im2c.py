@@ -10,9 +10,10 @@ meta-controller; ``core.dual.dual_system``). One training step, in the box's ord
   (24); one Eq. 5 step of M_n, R_n (25).
 - ``update_after_step`` / ``update_after_episode``: the learner's update on a minibatch from B (26-28).
 
-What the readings of each mechanism are (the ``default`` profile's repairs beside the ``paper`` profile's
-literal ones) is in docs/dual-system.md; DDPG+CMC is this agent over one global region with a fixed horizon
-(``core.dual.baselines``).
+What the readings of each mechanism are (one ``dual`` field each, `core.dual.readings`) is in
+docs/dual-system.md, "Mechanisms", with a table of the dual agents' readings: the ``default`` profile's
+``repaired`` beside the ``paper`` profile's ``paper`` and ``released`` ones. DDPG+CMC is this agent over one
+global region with a fixed horizon (``core.dual.baselines``).
 """
 
 from __future__ import annotations

@@ -9,16 +9,17 @@ average error ⟨e_n⟩ of the current region (c = ``dual.imagination_prob_scale
 each next region n_i with that region's p_{n_i} (so the errors of the regions traversed set the depth),
 up to D_max. A region without any recorded error has p = 0.
 
-`imagine` is the repair of where imagined transitions come from (``dual.imagination_source = learn_time``,
+`imagine` is the repair of where imagined transitions come from (``dual.imagination = repaired``,
 docs/dual-system.md, "Imagination"): B_latent keeps the act-time rollouts of Alg. 3 line 17 for the whole run
 (200k rows never wrap in a 12k-step run), so half of every critic and actor batch holds latents of an encoder
 long gone — at the start of training about 100× smaller than now. Instead, at every update the pixel
 minibatch's states are encoded by the current encoder and rolled out from there with the actor and the
 local models, with the same stopping rule as at act time (Alg. 1: go on while the region is reliable;
 LA-Imagination: with probability p_n), and used once. Each imagined transition is kept with the probability
-`LocalWorldModels.imagination_share` of the node that predicted it (``dual.imagination_gate``: how much
-better than "nothing changes" that node's model is on its held-out transitions), and carries ``done`` from
-the model's termination head (``dual.model_termination``); a rollout stops after a predicted termination.
+`LocalWorldModels.imagination_share` of the node that predicted it (`core.dual.readings.Imagination.gate`:
+how much better than "nothing changes" that node's model is on its held-out transitions), and carries
+``done`` from the model's termination head (`Imagination.termination`); a rollout stops after a predicted
+termination.
 """
 
 from __future__ import annotations
@@ -91,10 +92,8 @@ class RegionModels:
         rng: np.random.Generator,
         stop: Literal["reliable", "la"] = "reliable",
         la_scale: float = 1.0,
-        intrinsic: bool = False,
     ) -> None:
         self.world, self.rng, self.stop, self.la_scale = world, rng, stop, la_scale
-        self.intrinsic = intrinsic
 
     def locate(self, phi: torch.Tensor) -> np.ndarray:
         return self.world.nearest_many(phi)
@@ -110,14 +109,9 @@ class RegionModels:
         return self.rng.random(regions.shape[0]) < p
 
     def predict(self, regions: np.ndarray, phi: torch.Tensor, action: torch.Tensor) -> ModelPrediction:
-        """The region models' prediction; with ``intrinsic`` the reward is r̂ + r_int of the imagined
-        transition (``dual.imagination_reward = with_intrinsic``), as real transitions carry in the replay."""
-        prediction = self.world.bank.predict(torch.from_numpy(regions), phi, action)
-        if not self.intrinsic:
-            return prediction
-        bonus = self.world.intrinsic_rewards(regions, prediction.next_latent)
-        reward = prediction.reward + torch.as_tensor(bonus, dtype=prediction.reward.dtype)
-        return ModelPrediction(next_latent=prediction.next_latent, reward=reward, done=prediction.done)
+        """The region models' prediction: r̂ is the model's (the bank learns r_ext only; adding r_int, as real
+        transitions carry in the replay, was tried and rejected, docs/dual-system.md "Imagination")."""
+        return self.world.bank.predict(torch.from_numpy(regions), phi, action)
 
     def share(self, regions: np.ndarray) -> np.ndarray:
         return self.world.imagination_share(regions)

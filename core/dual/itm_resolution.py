@@ -81,7 +81,7 @@ class RelativeResolution:
 
 
 class LatentScale:
-    """The running RMS spread of the latent, for an ITM in scale-free coordinates (``dual.region_space``).
+    """The running RMS spread of the latent, for an ITM in scale-free coordinates (``regions = repaired``).
 
     The spread sqrt(EMA of ‖φ − μ‖²) around the running mean μ (an EMA too), both with the bias correction of
     Adam's moments and a time constant of ``horizon`` states; s follows the spread up at once and down only

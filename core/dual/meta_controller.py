@@ -25,6 +25,7 @@ import torch
 
 from core.config import DualConfig
 from core.dual.planning import ActorFn, PlanResult, Rollout, model_rollout, optimise_plan
+from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
 
 
@@ -48,6 +49,8 @@ class MetaController:
             raise ValueError(f"fixed horizon must be >= 0, got {fixed_horizon}")
         self.world = world
         self.config = dual
+        self.planner = resolve(dual).planner
+        """Eq. 6-7's reading (``dual.planner``, `core.dual.readings.Planner`)."""
         self.fixed_horizon = fixed_horizon
 
     def rollout(self, phi: torch.Tensor, node: int, actor: ActorFn) -> Rollout:
@@ -69,7 +72,7 @@ class MetaController:
             if rollout.depth > 0:
                 cfg = self.config
                 plan = optimise_plan(phi, rollout, self.world.bank, steps=cfg.plan_steps, lr=cfg.plan_lr,
-                                     objective=cfg.plan_objective, r_star=cfg.r_star,
-                                     optimiser=cfg.plan_optimiser, clip=cfg.plan_clip)
+                                     objective=self.planner.objective, r_star=cfg.r_star,
+                                     optimiser=self.planner.optimiser, clip=self.planner.clip)
                 return MetaDecision(action=plan.action, model_based=True, rollout=rollout, plan=plan)
         return MetaDecision(action=actor(phi)[0], model_based=False)

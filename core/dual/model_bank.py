@@ -25,16 +25,16 @@ Options (see docs/dual-system.md):
 - ``error_norm="squared"`` (Eq. 8 as printed: squared norms) or ``"l2"`` (authors' code: unsquared
   norms ‖M − φ′‖₂ + |R − r|). The prediction error of a sample is computed BEFORE its update and
   returned by `update`, ready for the learning-progress tracker.
-- ``target="absolute"`` (Eq. 5 as printed: the network outputs φ̂′) or ``"delta"`` (``dual.model_target``,
-  not in the paper: φ̂′ = φ + M(φ, a), the network outputs the change, and the reward head starts at 0). The
-  hidden layer spends its 20 units on the change rather than on copying φ through tanh (docs/dual-system.md,
-  "World models").
-- ``latent_scale`` s and ``latent_offset`` μ (``dual.model_space = normalised``, set by the owner): the
+- ``target="absolute"`` (Eq. 5 as printed: the network outputs φ̂′) or ``"delta"`` (``dual.world_models =
+  repaired``, not in the paper: φ̂′ = φ + M(φ, a), the network outputs the change, and the reward head starts
+  at 0). The hidden layer spends its 20 units on the change rather than on copying φ through tanh
+  (docs/dual-system.md, "World models").
+- ``latent_scale`` s and ``latent_offset`` μ (``dual.world_models = repaired``, set by the owner): the
   network reads (φ − μ) / s and its latent head is in units of s (φ̂′ = φ + s·M for delta, μ + s·M for
   absolute), so what it has learnt, its initial outputs and Adam's step (about α per weight) are relative to
   the latent's spread, not to its units: an untrained encoder's latents move by 0.005 per step, a trained
   one's by 0.5, and a step of 1e-3 on raw outputs is a noise floor of a few 0.01 in latent units.
-- ``termination=True`` (``dual.model_termination``, not in the paper): a third head, a logit of "this
+- ``termination=True`` (``dual.imagination = repaired``, not in the paper): a third head, a logit of "this
   transition ended the episode", trained with binary cross-entropy beside Eq. 5 (its own output weights; the
   hidden layer is shared). Imagined transitions take their ``done`` flag from it. Eq. 8 errors never include
   it.
@@ -117,7 +117,7 @@ class ModelBank:
         self.termination = bool(termination)
         self.latent_scale = 1.0
         """s: the models read (φ − μ) / s and output changes (or latents) in units of s — set by the owner
-        (``dual.model_space = normalised``: the latent's running RMS spread), 1 for the raw latent."""
+        (``dual.world_models = repaired``: the latent's running RMS spread), 1 for the raw latent."""
         self.latent_offset = torch.zeros(latent_dim)
         """μ of the above (zeros for the raw latent)."""
         self.generator = generator if generator is not None else torch.Generator().manual_seed(0)

@@ -18,17 +18,20 @@ Options (docs/dual-system.md, "Mechanisms"; each off in the ``paper`` profile):
   ``model_memory = M``, a uniform sample of its M newest (a model fitted to a sliding window of its last
   few transitions forgets the rest of its region and is judged better on anything recent); the LP error is
   always the new transition's alone.
-- ``region_space = normalised``: the map lives in φ / s, s the latent's running RMS spread
+- ``regions = repaired``: the map lives in φ / s, s the latent's running RMS spread
   (`core.dual.itm_resolution.LatentScale`), so e_max is in units of s: when the encoder's latents grow 100×
   over training, the regions do not move.
-- ``model_space = normalised``: the local models read φ / s and predict changes in units of s
+- ``world_models = repaired``: the local models read φ / s and predict changes in units of s
   (``ModelBank.latent_scale``; s over a longer horizon than the map's): their initial outputs and Adam's step
-  size are relative to the latent's spread, not to its units. ``region_prune_after = N`` removes
-  nodes that have not won for N states.
-- ``reliability = heldout``: every ``heldout_every``-th transition of a node is held out (not trained on) and
+  size are relative to the latent's spread, not to its units; they predict the change φ̂′ − φ, and a new
+  node's model starts as a copy of its parent's. ``region_prune_after = N`` removes nodes that have not won
+  for N states.
+- ``reliability = repaired``: every ``HeldOut.every``-th transition of a node is held out (not trained on) and
   the node's reliability is judged on it (`core.dual.reliability`); arbitration and Alg. 1's depth use it.
-- ``intrinsic_signal`` / ``intrinsic_region``: r_int = −c·LP (Eq. 9, the region the transition started in,
-  Alg. 2 line 22) or +c·held-out progress of the region the action led into (`intrinsic_reward`).
+- ``intrinsic``: r_int = −c·LP (Eq. 9, the region the transition started in, Alg. 2 line 22) or +c·held-out
+  progress of the region the action led into (`intrinsic_reward`).
+
+Each is read once from `core.dual.readings.resolve` (``self.readings``).
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ from core.dual.itm import InstantaneousTopologicalMap, ItmEvents
 from core.dual.itm_resolution import LatentScale, RelativeResolution
 from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
+from core.dual.readings import Readings, resolve
 from core.dual.reliability import HeldOutReliability
 
 REGION_SCALE_HORIZON = 200
@@ -65,22 +69,7 @@ class TransitionFeedback:
     error: float
     """e^prd of the node's model on the transition, before its update (Eq. 8)."""
     intrinsic_reward: float
-    """r_int after recording the error (``dual.intrinsic_signal``, ``dual.intrinsic_region``)."""
-
-
-def needs_heldout(dual: DualConfig) -> bool:
-    """Whether any option reads the held-out verdicts (reliability, intrinsic progress, imagination gate)."""
-    return (dual.reliability == "heldout" or dual.intrinsic_signal == "progress"
-            or dual.imagination_gate == "no_change_ratio")
-
-
-def effective_model_output(dual: DualConfig) -> str:
-    """The next-latent head's activation: ``dual.model_output`` for the paper's absolute model in raw latent
-    units; linear whenever the model predicts a change (``model_target=delta``) or works in normalised units
-    (``model_space=normalised``), where a sigmoid's (0, 1) range would be wrong."""
-    if dual.model_target == "absolute" and dual.model_space == "latent":
-        return dual.model_output
-    return "linear"
+    """r_int after recording the error (``dual.intrinsic``)."""
 
 
 class LocalWorldModels:
@@ -93,14 +82,19 @@ class LocalWorldModels:
         action_dim: int,
         regions: bool = True,
         generator: torch.Generator | None = None,
+        readings: Readings | None = None,
     ) -> None:
         self.config = dual
+        self.readings = resolve(dual) if readings is None else readings
+        """The mechanisms' readings (`core.dual.readings`): ``readings`` if given, else ``dual``'s."""
+        read = self.readings
         self.latent_dim = latent_dim
         self.action_dim = action_dim
         self.regions = regions
         capacity = 64 if regions else 1
         self.itm = (
-            InstantaneousTopologicalMap(latent_dim, dual.e_max, dual.itm_distance, initial_capacity=capacity)
+            InstantaneousTopologicalMap(latent_dim, dual.e_max, read.regions.distance,
+                                        initial_capacity=capacity)
             if regions else None
         )
         self.resolution = (
@@ -109,7 +103,7 @@ class LocalWorldModels:
             else None
         )
         # e_max_relative is a scale-free e_max of the raw latent: with it the map stays in raw coordinates
-        normalised_map = dual.region_space == "normalised" and dual.e_max_relative is None
+        normalised_map = read.regions.space == "normalised" and dual.e_max_relative is None
         self.scale = (LatentScale(latent_dim, horizon=REGION_SCALE_HORIZON)
                       if regions and normalised_map else None)
         self.bank = ModelBank(
@@ -117,34 +111,34 @@ class LocalWorldModels:
             action_dim=action_dim,
             hidden=dual.model_hidden,
             lr=dual.model_lr,
-            output_activation=effective_model_output(dual),
-            init=dual.new_node_model,
-            error_norm=dual.error_norm,
+            output_activation=read.world_models.output,
+            init=read.world_models.new_node,
+            error_norm=read.reliability.error_norm,
             initial_capacity=capacity,
             generator=generator,
-            target=dual.model_target,
-            termination=dual.model_termination,
+            target=read.world_models.target,
+            termination=read.imagination.termination,
         )
         self.lp = LearningProgress(
             window=dual.lp_sigma,
             history=dual.lp_window,
-            normalise=dual.lp_normalise,
-            warmup=dual.lp_warmup,
+            normalise=read.reliability.lp_normalise,
+            warmup=read.reliability.lp_warmup,
             scale=dual.intrinsic_scale,
             initial_capacity=capacity,
         )
         self.heldout = (
-            HeldOutReliability(self.bank, size=dual.heldout_size, every=dual.heldout_every,
-                               lag=dual.reliability_lag, z=dual.reliability_z,
-                               accurate_ratio=dual.accurate_ratio,
+            HeldOutReliability(self.bank, size=read.held_out.size, every=read.held_out.every,
+                               lag=read.held_out.lag, z=read.held_out.z,
+                               accurate_ratio=read.held_out.accurate_ratio,
                                initial_capacity=capacity, window=dual.lp_sigma)
-            if needs_heldout(dual) else None
+            if read.needs_heldout else None
         )
         if self.heldout is not None:
             self.heldout.reset_nodes(np.arange(capacity))
         self.unit = LatentScale(latent_dim, horizon=MODEL_SCALE_HORIZON)
         """The latent's running mean and RMS spread over a longer horizon (`LatentScale`): the local models'
-        units (``model_space``) and the repaired r_int's unit."""
+        units (``world_models = repaired``) and the repaired r_int's unit."""
         self.sample_size = max(0, dual.model_batch - 1)
         """Older transitions of the node in each Eq. 5 step, beside the new one."""
         self.memory_size = max(self.sample_size, dual.model_memory) if self.sample_size else 0
@@ -154,7 +148,7 @@ class LocalWorldModels:
 
     # ------------------------------------------------------------------ region coordinates
     def region_coordinates(self, phi: torch.Tensor | np.ndarray) -> np.ndarray | torch.Tensor:
-        """What the ITM sees of a latent: φ itself, or φ / s with ``region_space = normalised``."""
+        """What the ITM sees of a latent: φ itself, or φ / s with ``regions = repaired``."""
         return phi if self.scale is None else self.scale.normalise(phi)
 
     # ------------------------------------------------------------------ Alg. 2 lines 10-11
@@ -178,10 +172,10 @@ class LocalWorldModels:
         return events.winner
 
     def _sync_model_space(self) -> None:
-        """``model_space = normalised``: the models' unit s follows the latent's running RMS spread. They are
+        """``world_models = repaired``: the models' unit s follows the latent's running RMS spread. They are
         not centred: a running mean moves with where the agent is, and would move what they have learnt
         (the intrinsic check's learnable regions lost their progress that way)."""
-        if self.config.model_space == "normalised":
+        if self.readings.world_models.space == "normalised":
             self.bank.latent_scale = self.unit.scale
 
     def _follow(self, events: ItmEvents) -> None:
@@ -235,7 +229,7 @@ class LocalWorldModels:
     ) -> TransitionFeedback:
         """Eq. 8 error (before the update) → LP window of ``node``; one Eq. 5 step of ``node``'s model.
 
-        With held-out reliability every ``heldout_every``-th transition of the node goes to its held-out set
+        With held-out reliability every ``HeldOut.every``-th transition of the node goes to its held-out set
         and the step uses the node's recent transitions only.
         """
         phi = phi.reshape(1, -1)
@@ -289,19 +283,19 @@ class LocalWorldModels:
 
     def intrinsic_rewards(self, nodes: np.ndarray, next_phi: torch.Tensor) -> np.ndarray:
         """`intrinsic_reward` of many transitions: from regions ``nodes [k]`` to ``next_phi [k, latent]``."""
-        cfg = self.config
-        regions = nodes if cfg.intrinsic_region == "source" else self.nearest_many(next_phi)
-        if cfg.intrinsic_signal == "neg_lp":
+        intrinsic = self.readings.intrinsic
+        regions = nodes if intrinsic.region == "source" else self.nearest_many(next_phi)
+        if intrinsic.signal == "neg_lp":
             return self.lp.intrinsic_reward(regions)
         assert self.heldout is not None
-        unit = self.unit.scale if cfg.error_norm == "l2" else self.unit.scale**2
-        return cfg.intrinsic_scale * self.heldout.progress_of(regions) / unit
+        unit = self.unit.scale if self.readings.reliability.error_norm == "l2" else self.unit.scale**2
+        return self.config.intrinsic_scale * self.heldout.progress_of(regions) / unit
 
     def intrinsic_reward(self, node: int, next_phi: torch.Tensor) -> float:
         """r_int of a transition from region ``node`` to latent ``next_phi`` (Alg. 2 line 22, or the repair).
 
-        ``intrinsic_region``: source → the LP of ``node``; destination → the LP of the region ``next_phi``
-        falls in (the consequence of the action). ``intrinsic_signal``: neg_lp → −c·LP (Eq. 9, released
+        `Intrinsic.region`: source → the LP of ``node``; destination → the LP of the region ``next_phi``
+        falls in (the consequence of the action). `Intrinsic.signal`: neg_lp → −c·LP (Eq. 9, released
         normalisation); progress → +c·(held-out progress) / s, s the latent's RMS spread (`unit`; squared
         with squared Eq. 8 errors).
         """
@@ -342,19 +336,19 @@ class LocalWorldModels:
 
     # ------------------------------------------------------------------ queries
     def reliable(self, node: int) -> bool:
-        """Section 2.3.2's test: LP_{t,n} ≥ 0 (paper) or the held-out verdict (``dual.reliability``)."""
+        """Section 2.3.2's test: LP_{t,n} ≥ 0 (paper) or the held-out verdict (``reliability = repaired``)."""
         return bool(self.reliable_many(np.array([node]))[0])
 
     def reliable_many(self, nodes: np.ndarray) -> np.ndarray:
         """`reliable` for an array of nodes (vectorised)."""
-        if self.config.reliability == "heldout":
+        if self.readings.reliability.signal == "heldout":
             assert self.heldout is not None
             return self.heldout.is_trusted(nodes)
         return self.lp.reliable(nodes)
 
     def imagination_share(self, nodes: np.ndarray) -> np.ndarray:
-        """Probability of keeping an imagined transition each node predicted (``dual.imagination_gate``)."""
-        if self.config.imagination_gate == "none" or self.heldout is None:
+        """Probability of keeping an imagined transition each node predicted (``dual.imagination``)."""
+        if self.readings.imagination.gate == "none" or self.heldout is None:
             return np.ones(np.asarray(nodes).shape[0])
         return self.heldout.share(nodes, self.config.imagination_max_ratio)
 

@@ -69,15 +69,17 @@ class ConfigCellRunner:
 
     def normalise(self, stored: Mapping[str, Any]) -> dict[str, Any]:
         from core.config import Config
+        from core.dual.readings import upgrade_stored
 
-        return Config.from_dict(stored).to_dict()
+        return Config.from_dict(upgrade_stored(stored)).to_dict()
 
     def train(self, config: Mapping[str, Any], run_dir: Path, **options: Any) -> dict[str, Any]:
         """:meth:`CellRunner.train`; ``options`` are its ``resume``, ``should_stop``, ``on_episode`` and
         ``command``, passed on as they come."""
         from core.config import Config
+        from core.dual.readings import upgrade_stored
 
-        return self.training_function()(Config.from_dict(config), run_dir, **options)
+        return self.training_function()(Config.from_dict(upgrade_stored(config)), run_dir, **options)
 
     @staticmethod
     def _checked_config(method: MethodSpec, reward: str, build: Callable[[], Config]) -> dict[str, Any]:

@@ -32,6 +32,7 @@ import numpy as np
 import torch
 
 from core.config import Config, ConfigError, check_config, resolve_level_defaults
+from core.dual.readings import upgrade_stored
 from core.runs.metrics import area_under_curve, final_performance
 from core.runs.run_dir import CHECKPOINT_FORMAT, MetricsCSV, RunDirectory, RunDirectoryError, load_checkpoint
 from core.runs.tensorboard_log import TensorBoardLog, require_tensorboard
@@ -146,7 +147,7 @@ class RunBookkeeping:
         if self.resume:
             checkpoint = load_checkpoint(self.dir.latest_path)
             self._check_checkpoint(checkpoint)
-            saved = Config.from_dict(checkpoint["config"])
+            saved = Config.from_dict(upgrade_stored(checkpoint["config"]))
             for section in RESUME_CHECKED_SECTIONS:
                 if getattr(saved, section) != getattr(self.config, section):
                     raise ConfigError(

@@ -18,6 +18,7 @@ import numpy as np
 import torch
 
 from core.config import Config
+from core.dual.readings import upgrade_stored
 from core.envs.spec import EnvSpec
 from core.modelfree.networks import (
     ActionBounds,
@@ -120,7 +121,7 @@ def load_policy(path: Path | str) -> Policy:
         raise PolicyLoadError(f"cannot load policy from {checkpoint_path}: {exc}".splitlines()[0]) from exc
     if "policy" not in state:
         raise PolicyLoadError(f"{checkpoint_path} holds no policy weights")
-    config = Config.from_dict(state["config"])
+    config = Config.from_dict(upgrade_stored(state["config"]))
     weights = state["policy"]
     actor_weights = dict(weights["actor"])
     actor_weights.pop("action_scale", None)  # checkpoints before normalised actions: always 1

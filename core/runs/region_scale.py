@@ -17,6 +17,7 @@ import numpy as np
 import torch
 
 from core.dual.itm import InstantaneousTopologicalMap
+from core.dual.readings import resolve
 from core.envs import NicoGraspEnv
 from core.runs.policy import load_policy
 
@@ -73,7 +74,7 @@ def region_scale(
     rng = np.random.default_rng(seed)
     a, b = rng.integers(0, len(latents), size=(2, pairs))
     pairwise = np.linalg.norm(latents[a] - latents[b], axis=1)
-    distance = policy.config.dual.itm_distance
+    distance = resolve(policy.config.dual).regions.distance
     configured = policy.config.dual.e_max
     values = sorted({float(v) for v in (*e_max_values, configured)}, reverse=True)
     return {

@@ -3,11 +3,14 @@ what the world and the agents read from it (trust, the progress r_int, the imagi
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
 
 from core.config import load_config
+from core.dual.readings import HeldOut, Intrinsic, resolve
 from core.dual.reliability import judge, share_from_ratio
 from core.dual.world_models import LocalWorldModels
 
@@ -47,8 +50,10 @@ def test_progress_is_the_paired_mean_decrease_and_the_recent_window_sets_the_rat
 
 
 def _world(*overrides: str) -> LocalWorldModels:
-    dual = load_config("default", ["dual.reliability_lag=5", "dual.heldout_size=8", *overrides]).dual
-    return LocalWorldModels(dual, 2, 1, regions=False, generator=torch.Generator().manual_seed(0))
+    dual = load_config("default", list(overrides)).dual
+    readings = dataclasses.replace(resolve(dual), held_out=HeldOut(size=8, lag=5))
+    return LocalWorldModels(dual, 2, 1, regions=False, generator=torch.Generator().manual_seed(0),
+                            readings=readings)
 
 
 def test_every_kth_transition_is_held_out_and_never_trained_on() -> None:
@@ -92,6 +97,6 @@ def test_repaired_intrinsic_reward_is_the_progress_of_the_region_the_action_led_
     feedback = world.learn_transition(here, torch.tensor([0.0, 0.0]), torch.tensor([1.0]), 0.0,
                                       torch.tensor([3.0, 0.0]))
     assert feedback.intrinsic_reward == pytest.approx(dual.intrinsic_scale * 0.4 / unit, rel=1e-6)
-    source = load_config("default", ["dual.e_max=0.5", "dual.intrinsic_region=source"]).dual
-    world.config = source
+    source = Intrinsic(signal="progress", region="source")  # no reading: repaired signal, paper's region
+    world.readings = dataclasses.replace(world.readings, intrinsic=source)
     assert world.intrinsic_reward(here, torch.tensor([3.0, 0.0])) == pytest.approx(0.0)

@@ -29,25 +29,122 @@ def test_paper_profile_holds_section_4_1_1_values():
     assert (env.fixed_positions, env.dense_shaping, env.hand) == (None, "distance", "learned")
 
 
-def test_paper_dual_section_is_the_literal_reading_and_the_default_has_every_repair_on():
-    paper, default = load_config("paper").dual, load_config("default").dual
-    literal = {"region_space": "latent", "model_space": "latent", "region_prune_after": 0,
-               "reliability": "lp", "intrinsic_signal": "neg_lp", "intrinsic_region": "source",
-               "model_target": "absolute",
-               "model_termination": False, "model_batch": 1, "model_memory": 0, "new_node_model": "fresh",
-               "refit_every": 0, "plan_optimiser": "sgd", "plan_clip": "executed",
-               "imagination_source": "act_time", "imagination_gate": "none"}
-    for key, value in literal.items():
-        assert getattr(paper, key) == value, key
-        assert getattr(default, key) != value, key
-    assert load_config("default", list(PAPER_DUAL_OVERRIDES)).dual == paper
-    # the released sigmoid output applies to the paper's absolute model only; a delta model stays linear
-    from core.dual.world_models import effective_model_output
+OLD_BY_MECHANISM = {  # old key: (the reading's attribute, `paper` profile's old value, `default`'s old value)
+    "regions": {"region_space": ("space", "latent", "normalised"), "itm_distance": ("distance", "l2", "l2")},
+    "world_models": {"model_space": ("space", "latent", "normalised"),
+                     "model_target": ("target", "absolute", "delta"),
+                     "model_output": ("output", "linear", "linear"),
+                     "new_node_model": ("new_node", "fresh", "parent")},
+    "reliability": {"reliability": ("signal", "lp", "heldout"), "error_norm": ("error_norm", "l2", "l2"),
+                    "lp_normalise": ("lp_normalise", True, True),
+                    "lp_warmup": ("lp_warmup", "zero_oldest", "zero_oldest")},
+    "intrinsic": {"intrinsic_signal": ("signal", "neg_lp", "progress"),
+                  "intrinsic_region": ("region", "source", "destination")},
+    "planner": {"plan_optimiser": ("optimiser", "sgd", "normalised"),
+                "plan_clip": ("clip", "executed", "every_step"),
+                "plan_objective": ("objective", "sum", "sum")},
+    "imagination": {"imagination_source": ("source", "act_time", "learn_time"),
+                    "imagination_gate": ("gate", "none", "no_change_ratio"),
+                    "model_termination": ("termination", False, True)},
+}
+OLD_SWITCHES = {key: (mechanism, *row) for mechanism, rows in OLD_BY_MECHANISM.items()
+                for key, row in rows.items()}
+"""The 18 switches the readings replaced, with each profile's value before the change (the other three:
+``arbitration`` stayed a field, ``imagination_reward = model`` and ``imagination_actor = all`` are what every
+reading does now)."""
 
-    released_delta = load_config("default", ["dual.model_output=released", "dual.model_space=latent"])
-    check_config(released_delta)
-    assert effective_model_output(released_delta.dual) == "linear"
-    assert effective_model_output(paper) == paper.model_output
+OLD_HELD_OUT = {"heldout_size": ("size", 48), "heldout_every": ("every", 4), "reliability_lag": ("lag", 100),
+                "reliability_z": ("z", 3.0), "accurate_ratio": ("accurate_ratio", 0.5)}
+
+
+@pytest.mark.parametrize("profile", ["paper", "default"])
+def test_profiles_resolve_to_exactly_their_old_switch_values(profile):
+    from core.dual.readings import resolve
+
+    dual = load_config(profile).dual
+    readings = resolve(dual)
+    for key, (mechanism, attribute, paper, default) in OLD_SWITCHES.items():
+        got = getattr(getattr(readings, mechanism), attribute)
+        assert got == (paper if profile == "paper" else default), key
+    for key, (attribute, value) in OLD_HELD_OUT.items():
+        assert getattr(readings.held_out, attribute) == value, key
+    assert dual.arbitration == "lp"
+    expected = {"regions": "released", "world_models": "paper", "reliability": "released",
+                "intrinsic": "paper", "planner": "paper", "imagination": "paper"}
+    for mechanism, reading in expected.items():
+        assert getattr(dual, mechanism) == (reading if profile == "paper" else "repaired"), mechanism
+
+
+def test_paper_dual_overrides_turn_the_default_into_the_paper_dual_section():
+    paper = load_config("paper").dual
+    assert load_config("default", list(PAPER_DUAL_OVERRIDES)).dual == paper
+    removed = set(OLD_SWITCHES) - {"reliability"}  # the one old key that kept its name
+    assert not {key.split("=")[0].removeprefix("dual.") for key in PAPER_DUAL_OVERRIDES} & removed
+    assert "dual.reliability=released" in PAPER_DUAL_OVERRIDES
+
+
+def test_each_reading_holds_the_old_values_it_names():
+    from core.dual import readings as r
+
+    assert r.REGIONS["paper"] == r.Regions(space="latent", distance="squared")
+    assert r.WORLD_MODELS["released"] == r.WorldModels(space="latent", target="absolute",
+                                                       output="released", new_node="fresh")
+    # the released sigmoid heads only with the absolute raw-latent model: every other reading is linear
+    assert {w.output for name, w in r.WORLD_MODELS.items() if name != "released"} == {"linear"}
+    assert r.RELIABILITY["paper"] == r.Reliability(signal="lp", error_norm="squared", lp_normalise=False,
+                                                   lp_warmup="unreliable")
+    assert r.PLANNER["released"] == r.Planner(objective="per_step", optimiser="sgd", clip="executed")
+    no_head = r.Imagination(source="learn_time", gate="no_change_ratio", termination=False)
+    assert r.IMAGINATION["repaired_no_termination"] == no_head
+    for mechanism, table in r.TABLES.items():  # every reading is one distinct combination
+        assert len(set(table.values())) == len(table), mechanism
+
+
+@pytest.mark.parametrize("key", [*OLD_SWITCHES, *OLD_HELD_OUT, "imagination_reward", "imagination_actor"])
+def test_a_removed_dual_key_is_a_one_line_error_naming_what_replaced_it(key, tmp_path):
+    if key == "reliability":
+        with pytest.raises(ConfigError, match=r"bad value for dual\.reliability: 'lp'"):
+            load_config("default", ["dual.reliability=lp"])
+        return
+    with pytest.raises(ConfigError) as error:
+        load_config("default", [f"dual.{key}=1"])
+    message = str(error.value)
+    assert "\n" not in message and message.startswith(f"unknown config key 'dual.{key}'")
+    if key in OLD_SWITCHES:
+        assert f"now dual.{OLD_SWITCHES[key][0]}," in message
+    file = tmp_path / "old.yaml"
+    file.write_text(f"dual:\n  {key}: 1\n")
+    with pytest.raises(ConfigError, match=f"unknown config key 'dual.{key}'"):
+        load_config("default", file=file)
+
+
+def test_a_scale_free_e_max_needs_a_raw_latent_map():
+    check_config(load_config("default", ["dual.e_max_relative=1.0", "dual.regions=released"]))
+    with pytest.raises(ConfigError, match=r"dual\.e_max_relative: it puts the map in raw latent"):
+        check_config(load_config("default", ["dual.e_max_relative=1.0"]))
+
+
+def test_a_stored_config_in_the_old_switches_is_read_as_its_readings():
+    from core.dual.readings import upgrade_stored
+
+    for profile in ("paper", "default"):
+        stored = Config.from_dict({}, base=load_config(profile)).to_dict()
+        fields = ("regions", "world_models", "reliability", "intrinsic", "planner", "imagination")
+        dual = {key: value for key, value in stored["dual"].items() if key not in fields}
+        column = 2 if profile == "paper" else 3
+        dual.update({key: row[column] for key, row in OLD_SWITCHES.items()})
+        dual.update({key: value for key, (_, value) in OLD_HELD_OUT.items()})
+        dual.update(imagination_reward="model", imagination_actor="all")
+        old = {**stored, "dual": dual}
+        assert Config.from_dict(upgrade_stored(old)).dual == load_config(profile).dual
+        assert upgrade_stored(stored) == stored  # the new words pass unchanged
+    # the literal IM2C of mountaincar-repairs: the termination head off, the gate's held-out sets kept
+    old = {"dual": {"model_termination": False}}
+    assert upgrade_stored(old)["dual"] == {"imagination": "repaired_no_termination"}
+    with pytest.raises(ConfigError, match=r"no reading of dual\.planner"):
+        upgrade_stored({"dual": {"plan_optimiser": "adam"}})
+    with pytest.raises(ConfigError, match="imagination_actor"):
+        upgrade_stored({"dual": {"imagination_actor": "real"}})
 
 
 def test_profiles_are_fresh_objects():

@@ -215,7 +215,7 @@ TINY_I2A = {
     "agent.batch_size": 8,
     # the paper's LP arbitration decides from the first states on; the repaired held-out reliability needs
     # more transitions per region than 80 steps give, and the page should show model-based decisions
-    "dual.reliability": "lp",
+    "dual.reliability": "released",
 }
 
 

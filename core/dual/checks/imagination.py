@@ -1,5 +1,5 @@
 """Check: imagination adds data a critic can use, and nothing when the model cannot predict (Alg. 3 lines
-13-21, 35; ``dual.imagination_source``, ``dual.imagination_gate``, ``dual.model_termination``).
+13-21, 35; ``dual.imagination``: `core.dual.readings.Imagination`).
 
 Purpose (Section 3): imagined transitions are more training data for the critic and the actor. They help
 when the model is right and should not hurt when it is not. The check is a small latent MDP with a known
@@ -11,14 +11,14 @@ real transitions (uniform φ and a), for 1000 minibatch steps of 64 real transit
 - real only;
 - with learn-time imagination (`core.dual.imagination.imagine`, the function the agents call) from the true
   model: each step the minibatch's states are rolled out 3 steps under μ, transitions terminal where the
-  model says so (never without ``model_termination``, as a bank without the head gives);
+  model says so (never without `Imagination.termination`, as a bank without the head gives);
 - the same from the no-change model (φ̂′ = φ, r̂ = 0, never terminal).
 
-Each imagined transition is kept with the profile's gate (``imagination_gate``): with ``no_change_ratio``
+Each imagined transition is kept with the profile's gate (`Imagination.gate`): with ``no_change_ratio``
 the probability `core.dual.reliability.share_from_ratio` of the model's Eq. 8 error / the no-change
 predictor's on 500 held-out real transitions (0 for the true model, 1 for the no-change model); with
 ``none`` always. Figures: the critic's mean squared error against the true Q^μ (by rollout) on the held-out
-transitions, averaged over three seeds. With ``imagination_source = act_time`` (the paper's B_latent) the
+transitions, averaged over three seeds. With the paper's act-time source (B_latent) the
 check still imagines at learn time: what it measures is the gate and the terminal rule, not the storage.
 """
 
@@ -31,6 +31,7 @@ from torch import nn
 from core.config import DualConfig
 from core.dual.imagination import imagine
 from core.dual.model_bank import ModelPrediction
+from core.dual.readings import resolve
 from core.dual.reliability import share_from_ratio
 
 GOAL = np.array([0.5, 0.3])
@@ -122,10 +123,11 @@ def critic_error(dual: DualConfig, model: str, seed: int, updates: int = 1000, r
     if model != "none":
         true = model == "true"
         share = 1.0
-        if dual.imagination_gate == "no_change_ratio":
-            share = float(share_from_ratio(_ratio(true, held_phi, held_action, dual.error_norm),
+        read = resolve(dual)
+        if read.imagination.gate == "no_change_ratio":
+            share = float(share_from_ratio(_ratio(true, held_phi, held_action, read.reliability.error_norm),
                                            dual.imagination_max_ratio))
-        imagination = _Model(true, share, termination=dual.model_termination)
+        imagination = _Model(true, share, termination=read.imagination.termination)
     critic = nn.Sequential(nn.Linear(4, 32), nn.ReLU(), nn.Linear(32, 32), nn.ReLU(), nn.Linear(32, 1))
     target = nn.Sequential(nn.Linear(4, 32), nn.ReLU(), nn.Linear(32, 32), nn.ReLU(), nn.Linear(32, 1))
     target.load_state_dict(critic.state_dict())

@@ -1,5 +1,5 @@
-"""Check: the intrinsic reward steers toward what can be learned (Alg. 2 line 22; ``dual.intrinsic_signal``,
-``dual.intrinsic_region``).
+"""Check: the intrinsic reward steers toward what can be learned (Alg. 2 line 22; ``dual.intrinsic``,
+``dual.intrinsic_scale``).
 
 Purpose (Section 2.3.1: "this reward encourages actions that result in ..." data that improves the model):
 a learning-progress reward should draw the agent to the region whose dynamics it can still learn — not to a

@@ -1,5 +1,5 @@
-"""Check: gradient MPC moves the plan toward higher return (Eq. 6-7; ``dual.plan_optimiser``,
-``dual.plan_lr``, ``dual.plan_clip``, ``dual.plan_steps``, ``dual.plan_objective``).
+"""Check: gradient MPC moves the plan toward higher return (Eq. 6-7; ``dual.planner``,
+``dual.plan_lr``, ``dual.plan_steps``).
 
 Purpose (Section 2.2): starting from the actor's plan, K gradient steps on L_plan should give a plan whose
 return is higher, by enough to matter beside the exploration noise added afterwards (Alg. 2 line 20). In
@@ -30,6 +30,7 @@ import torch
 from core.config import Config, DualConfig
 from core.dual.model_bank import ModelBank
 from core.dual.planning import model_rollout, optimise_plan
+from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
 
 LATENT, ACTIONS, HIDDEN, BUMPS, HORIZON = 2, 2, 20, 8, 3
@@ -88,13 +89,14 @@ def plan_figures(dual: DualConfig, noise_std: float, model: ModelBank, truth: Mo
         actor[0].weight.copy_(torch.randn((ACTIONS, LATENT), generator=g))
         actor[0].bias.copy_(torch.randn(ACTIONS, generator=g) * 0.5)
     toward, shifts = [], []
+    planner = resolve(dual).planner
     for phi in torch.rand(starts, LATENT, generator=g) * 2 - 1:
         with torch.no_grad():
             rollout = model_rollout(phi, 0, model, actor, HORIZON, continue_at=lambda _i, _n: True,
                                     locate=lambda _latent: 0)
         result = optimise_plan(phi, rollout, model, steps=dual.plan_steps, lr=dual.plan_lr,
-                               objective=dual.plan_objective, r_star=dual.r_star,
-                               optimiser=dual.plan_optimiser, clip=dual.plan_clip)
+                               objective=planner.objective, r_star=dual.r_star,
+                               optimiser=planner.optimiser, clip=planner.clip)
         toward.append(true_return(truth, phi, result.plan) > true_return(truth, phi, rollout.actions))
         shifts.append(float((result.action - rollout.actions[0].clamp(-1.0, 1.0)).abs().max()))
     return {"toward_reward_share": float(np.mean(toward)),

@@ -1,4 +1,4 @@
-"""Check: ITM regions do not depend on the latent's scale (Section 2.3.1; ``dual.region_space``,
+"""Check: ITM regions do not depend on the latent's scale (Section 2.3.1; ``dual.regions``,
 ``dual.e_max``, ``dual.region_prune_after``).
 
 Purpose: the map should cut the latent space into regions of a chosen resolution whatever units the encoder

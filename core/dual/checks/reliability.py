@@ -1,12 +1,12 @@
-"""Check: reliability tells learning from noise (Section 2.3.2, Eq. 8-9; ``dual.reliability`` and its
-``heldout_size``, ``heldout_every``, ``reliability_lag``, ``reliability_z``, ``accurate_ratio``).
+"""Check: reliability tells learning from noise (Section 2.3.2, Eq. 8-9; ``dual.reliability`` and the
+held-out constants `core.dual.readings.HeldOut`: size, every, lag, z, accurate_ratio).
 
 Purpose: the meta-controller should trust a region's model where it is reliable — an accurate model, or one
 that is getting better — and distrust a model that gets worse or cannot learn (random outcomes). The check
 runs the configured reliability signal on synthetic error streams and reports the share of evaluations at
 which each stream's model is trusted. A stream is an error level over the model's age, in units of the
 no-change predictor's error, geometric over the ``length`` = 400 evaluated updates (ages 2L .. 2L + 400,
-L = ``reliability_lag``; extrapolated before):
+L = `HeldOut.lag`; extrapolated before):
 
 - ``improving``: halves, 0.9 → 0.45 (a real bank model on a learnable stream halved its error over about
   500 updates, docs/dual-system.md);
@@ -21,9 +21,9 @@ measured on real bank models (docs/dual-system.md, "Reliability"): j_s = 0.3, j_
 learns, 0.1 and 0.02 for one that predicts noise. The no-change predictor's error on sample j is
 ``|1 + 0.5 ε′_j|``.
 
-- paper (``reliability = lp``): the stream of new samples' errors, one per update, feeds `LearningProgress`
+- paper, released (LP ≥ 0): the stream of new samples' errors, one per update, feeds `LearningProgress`
   (Eq. 8-9 with the configured σ, W and readings); trusted = LP ≥ 0.
-- repair (``reliability = heldout``): at each evaluation, ``heldout_size`` samples are scored by the current
+- repaired (held-out): at each evaluation, `HeldOut.size` samples are scored by the current
   model and by the snapshots `HeldOutReliability` would hold (the recent one, L..2L updates back, and the
   oldest of the ring) and judged by `core.dual.reliability.judge`, the very rule the agents use.
 
@@ -41,6 +41,7 @@ import torch
 
 from core.config import DualConfig
 from core.dual.learning_progress import LearningProgress
+from core.dual.readings import resolve
 from core.dual.reliability import SNAPSHOTS, judge
 from core.dual.world_models import LocalWorldModels
 
@@ -86,15 +87,18 @@ def trusted_share(dual: DualConfig, stream: Stream, length: int, seed: int) -> f
     """Share of evaluations (model ages 2L .. 2L + length) at which the configured reliability trusts the
     stream's model."""
     rng = np.random.default_rng(seed)
-    lag = dual.reliability_lag
+    read = resolve(dual)
+    held_out = read.held_out
+    lag = held_out.lag
     first = 2 * lag
     ages = np.arange(first + length)
     evaluated = ages >= first
-    if dual.reliability == "lp":
+    if read.reliability.signal == "lp":
         difficulty = np.abs(1.0 + DIFFICULTY_NOISE * rng.normal(size=(ages.size, 1)))
         errors = _errors(stream, ages, first, length, rng, difficulty)[:, 0]
-        lp = LearningProgress(window=dual.lp_sigma, history=dual.lp_window, normalise=dual.lp_normalise,
-                              warmup=dual.lp_warmup, initial_capacity=1)
+        lp = LearningProgress(window=dual.lp_sigma, history=dual.lp_window,
+                              normalise=read.reliability.lp_normalise, warmup=read.reliability.lp_warmup,
+                              initial_capacity=1)
         trusted = np.zeros(ages.size, dtype=bool)
         for age in ages:
             lp.record([0], [errors[age]])
@@ -104,7 +108,7 @@ def trusted_share(dual: DualConfig, stream: Stream, length: int, seed: int) -> f
     taken = now_ages // lag  # snapshots taken at ages L, 2L, ..., kept in a ring of SNAPSHOTS
     recent = (taken - 1) * lag
     oldest = np.maximum(1, taken - SNAPSHOTS + 1) * lag
-    n = dual.heldout_size
+    n = held_out.size
     difficulty = np.abs(1.0 + DIFFICULTY_NOISE * rng.normal(size=(now_ages.size, n)))
     now = _errors(stream, now_ages, first, length, rng, difficulty)
     befores = [_errors(stream, ages_back, first, length, rng, difficulty) for ages_back in (recent, oldest)]
@@ -117,8 +121,8 @@ def trusted_share(dual: DualConfig, stream: Stream, length: int, seed: int) -> f
     recent = (level * window_difficulty * np.abs(1.0 + jitter),
               np.abs(1.0 + DIFFICULTY_NOISE * rng.normal(size=window_ages.shape)),
               np.ones(window_ages.shape, dtype=bool))
-    verdict = judge(now, befores, no_change, np.ones_like(now, dtype=bool), dual.reliability_z,
-                    dual.accurate_ratio, max(2, n // 2), recent=recent)
+    verdict = judge(now, befores, no_change, np.ones_like(now, dtype=bool), held_out.z,
+                    held_out.accurate_ratio, max(2, n // 2), recent=recent)
     return float(verdict.trusted.mean())
 
 

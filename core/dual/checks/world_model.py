@@ -1,4 +1,4 @@
-"""Check: the local world models beat "nothing changes" (Eq. 5, Eq. 8; ``dual.model_target``,
+"""Check: the local world models beat "nothing changes" (Eq. 5, Eq. 8; ``dual.world_models``,
 ``dual.model_batch``, ``dual.model_memory``).
 
 Purpose (Section 2.2): M_n and R_n predict φ′ and r well enough to plan and imagine with. The least a model
@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from core.config import DualConfig
+from core.dual.readings import Readings
 from core.dual.world_models import LocalWorldModels
 
 Transition = tuple[np.ndarray, np.ndarray, float, np.ndarray]
@@ -42,9 +43,11 @@ def known_dynamics(steps: int, seed: int, dim: int = 8, actions: int = 2) -> Ite
 
 
 def error_ratio(dual: DualConfig, stream: Iterable[Transition], latent_dim: int, action_dim: int,
-                seed: int = 0) -> float:
-    """Mean Eq. 8 error of the models / of "nothing changes" on the last quarter of ``stream``."""
-    world = LocalWorldModels(dual, latent_dim, action_dim, generator=torch.Generator().manual_seed(seed))
+                seed: int = 0, readings: Readings | None = None) -> float:
+    """Mean Eq. 8 error of the models / of "nothing changes" on the last quarter of ``stream`` (``readings``:
+    those instead of ``dual``'s)."""
+    world = LocalWorldModels(dual, latent_dim, action_dim, generator=torch.Generator().manual_seed(seed),
+                             readings=readings)
     errors, no_change = [], []
     for phi, action, reward, nxt in stream:
         phi_t = torch.as_tensor(phi, dtype=torch.float32)

@@ -238,14 +238,8 @@ class Learner(nn.Module):
             **_actor_extras(actor),
         }
 
-    def update_with_imagination(
-        self, pixel: PixelBatch, latent: LatentBatch | None, actor_on_imagined: bool = True
-    ) -> dict[str, float]:
-        """Algorithm 3 lines 34-37 on one pixel and one latent minibatch (``latent`` None: pixel only).
-
-        ``actor_on_imagined`` False: line 36 steps the actor on the pixel minibatch's latents only, so
-        imagined transitions shape the critic but never the policy directly.
-        """
+    def update_with_imagination(self, pixel: PixelBatch, latent: LatentBatch | None) -> dict[str, float]:
+        """Algorithm 3 lines 34-37 on one pixel and one latent minibatch (``latent`` None: pixel only)."""
         cfg = self.agent_config
         self.updates += 1
         obs = self.encoder.prepare(pixel.obs)
@@ -276,7 +270,7 @@ class Learner(nn.Module):
             self.critic_optimizer.step()
         with torch.no_grad():
             phi = self.encoder(obs)
-        if latent is None or not actor_on_imagined:
+        if latent is None:
             actor = self.policy_step(phi, pixel.action, y_pixel)
         else:
             actor = self.policy_step(torch.cat([phi, latent.latent]), action_all, y_all)

@@ -1,0 +1,271 @@
+"""The readings of each dual-system mechanism: one config field per mechanism names one of them.
+
+Each mechanism of docs/dual-system.md ("Mechanisms") is read in up to three ways: ``paper`` (the literal
+text), ``released`` (the authors' released code, where it differs from the text) and ``repaired`` (the
+``default`` profile: the repairs of the mechanisms issue). A reading is a frozen record of the choices it
+makes (the values of the switches it replaced); `resolve` selects one per mechanism from a `DualConfig`, once,
+where the dual system is built (`LocalWorldModels`, `MetaController`, the mechanism checks), and the code
+reads the record. Numbers (e_max, learning rates, sizes) stay config fields; the held-out reliability's own
+constants are `HeldOut`.
+
+- regions (`Regions`): paper — raw latent, squared L2; released — raw latent, L2; repaired — the latent
+  divided by its running RMS spread, L2.
+- world_models (`WorldModels`): paper — raw latent, φ̂′ itself, linear heads, a fresh model per new node;
+  released — as paper with sigmoid/tanh heads; repaired — φ / s, the change in units of s, linear heads, a
+  new node copies its parent's model.
+- reliability (`Reliability`): paper — LP ≥ 0 of squared errors, not normalised, a new node unreliable;
+  released — LP ≥ 0 of error norms, divided by the max mean, the oldest mean 0; repaired — the held-out
+  verdict, error norms.
+- intrinsic (`Intrinsic`): paper (= the released code) — −c·LP of the source region; repaired — +c·held-out
+  progress of the destination region.
+- planner (`Planner`): paper — (R* − Σ r̂)², plain gradient, only the executed action clipped; released —
+  ½ Σ (1 − r̂)², otherwise paper; repaired — (R* − Σ r̂)², normalised steps, every plan action clipped.
+- imagination (`Imagination`): paper (= the released code) — the act-time rollout in B_latent, all kept, no
+  termination head; repaired — learn-time rollouts, the no-change gate, a termination head;
+  repaired_no_termination — repaired without the head, the one combination a shipped experiment ran that is
+  no reading of text or code (`IMAGINATION`).
+
+The ``paper`` profile is the text where it is explicit and the code where it is silent: regions and
+reliability ``released`` (L2 distance and error norms, LP normalised by its max), the rest ``paper``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from core.config import (
+    OLD_DUAL_CONSTANTS,
+    OLD_DUAL_REJECTED,
+    OLD_DUAL_SWITCHES,
+    ConfigError,
+    DualConfig,
+    coerce,
+)
+
+
+@dataclass(frozen=True)
+class Regions:
+    """Where the ITM lives and how it measures (Section 2.3.1).
+
+    ``space``: the raw latent, or the latent divided by its running RMS spread (e_max then in units of the
+    spread; ``dual.e_max_relative``, a raw-latent resolution, is refused with the latter). ``distance``
+    compared with e_max: L2 (released code) or squared L2 (the text)."""
+
+    space: Literal["latent", "normalised"]
+    distance: Literal["l2", "squared"]
+
+
+@dataclass(frozen=True)
+class WorldModels:
+    """The local models M_n, R_n (Eq. 5, Section 4.1.1).
+
+    ``space``: what they read and predict, the raw latent or φ / its RMS spread s in units of s. ``target``:
+    φ̂′ itself (Eq. 5) or the change, φ̂′ = φ + M_n(φ, a). ``output``: linear heads (Section 4.1.1) or a
+    sigmoid latent and tanh reward (released code; only with the absolute model in raw latent units, where a
+    (0, 1) range can be meant). ``new_node``: a new ITM node's model freshly initialised (released code) or a
+    copy of its parent's."""
+
+    space: Literal["latent", "normalised"]
+    target: Literal["absolute", "delta"]
+    output: Literal["linear", "released"]
+    new_node: Literal["fresh", "parent"]
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """The held-out reliability's constants (`core.dual.reliability.HeldOutReliability`), used wherever a
+    repaired reading reads held-out verdicts: the repaired reliability, intrinsic reward and imagination gate.
+    Never changed by a profile or a shipped experiment (they were the config keys ``dual.heldout_size``,
+    ``heldout_every``, ``reliability_lag``, ``reliability_z`` and ``accurate_ratio``).
+
+    ``size``: held-out transitions kept per node (its newest, a ring); every ``every``-th real transition of a
+    node goes there instead of its training data; parameters are snapshotted every ``lag`` model updates
+    (progress compares with one L..2L updates old); ``z``: the margin, in standard errors of the paired
+    held-out difference, for "improving" and "worsening"; a model is accurate when its held-out error is at
+    most ``accurate_ratio`` of the no-change predictor's."""
+
+    size: int = 48
+    every: int = 4
+    lag: int = 100
+    z: float = 3.0
+    accurate_ratio: float = 0.5
+
+
+@dataclass(frozen=True)
+class Reliability:
+    """Arbitration's reliability and the Eq. 8-9 error stream (Section 2.3.2).
+
+    ``signal``: LP ≥ 0 of the error stream (Eq. 9), or the held-out error and progress verdict (`HeldOut`).
+    ``error_norm``: Eq. 8 as norms (released code) or squared norms (as printed). ``lp_normalise``: divide
+    LP by the max of the history of means (released code). ``lp_warmup``, before W+1 window means exist: the
+    oldest mean counts as 0, so a new node starts with LP < 0 (released code), or the node is unreliable
+    with r_int = 0 (the text's Eq. 9)."""
+
+    signal: Literal["lp", "heldout"]
+    error_norm: Literal["l2", "squared"]
+    lp_normalise: bool
+    lp_warmup: Literal["zero_oldest", "unreliable"]
+
+
+@dataclass(frozen=True)
+class Intrinsic:
+    """r_int (Alg. 2 line 22): ``signal`` −c·LP of the error stream, or +c·held-out progress / the latent's
+    spread; ``region`` whose signal rewards a transition: the one it started in, or the one the action led
+    into."""
+
+    signal: Literal["neg_lp", "progress"]
+    region: Literal["source", "destination"]
+
+
+@dataclass(frozen=True)
+class Planner:
+    """Gradient MPC (Eq. 6-7).
+
+    ``objective``: (R* − Σ r̂)² (Eq. 6), or ½ Σ (1 − r̂)² (released code). ``optimiser``, Eq. 7's step: the
+    plain gradient, or the gradient scaled to length α (a step in action units). ``clip``: only the executed
+    action to [−1, 1], or every plan action after every step (a projection)."""
+
+    objective: Literal["sum", "per_step"]
+    optimiser: Literal["sgd", "normalised"]
+    clip: Literal["executed", "every_step"]
+
+
+@dataclass(frozen=True)
+class Imagination:
+    """I2A's imagined transitions (Alg. 3 lines 13-21, 35-36).
+
+    ``source``: the act-time rollout stored in B_latent (line 17), or rollouts from the pixel minibatch's
+    states, encoded by the current encoder, made at each update and never stored. ``gate``: keep every
+    imagined transition, or one with probability clip(1 − ratio / max_ratio, 0, 1), ratio its node's
+    held-out error / the no-change error (``dual.imagination_max_ratio``). ``termination``: a termination head
+    on each local model (BCE on the real ``terminated``) for imagined ``done`` flags."""
+
+    source: Literal["act_time", "learn_time"]
+    gate: Literal["none", "no_change_ratio"]
+    termination: bool
+
+
+REGIONS: dict[str, Regions] = {
+    "paper": Regions(space="latent", distance="squared"),
+    "released": Regions(space="latent", distance="l2"),
+    "repaired": Regions(space="normalised", distance="l2"),
+}
+WORLD_MODELS: dict[str, WorldModels] = {
+    "paper": WorldModels(space="latent", target="absolute", output="linear", new_node="fresh"),
+    "released": WorldModels(space="latent", target="absolute", output="released", new_node="fresh"),
+    "repaired": WorldModels(space="normalised", target="delta", output="linear", new_node="parent"),
+}
+RELIABILITY: dict[str, Reliability] = {
+    "paper": Reliability(signal="lp", error_norm="squared", lp_normalise=False, lp_warmup="unreliable"),
+    "released": Reliability(signal="lp", error_norm="l2", lp_normalise=True, lp_warmup="zero_oldest"),
+    "repaired": Reliability(signal="heldout", error_norm="l2", lp_normalise=True, lp_warmup="zero_oldest"),
+}
+INTRINSIC: dict[str, Intrinsic] = {
+    "paper": Intrinsic(signal="neg_lp", region="source"),
+    "repaired": Intrinsic(signal="progress", region="destination"),
+}
+PLANNER: dict[str, Planner] = {
+    "paper": Planner(objective="sum", optimiser="sgd", clip="executed"),
+    "released": Planner(objective="per_step", optimiser="sgd", clip="executed"),
+    "repaired": Planner(objective="sum", optimiser="normalised", clip="every_step"),
+}
+IMAGINATION: dict[str, Imagination] = {
+    "paper": Imagination(source="act_time", gate="none", termination=False),
+    "repaired": Imagination(source="learn_time", gate="no_change_ratio", termination=True),
+    "repaired_no_termination": Imagination(source="learn_time", gate="no_change_ratio", termination=False),
+}
+"""``repaired_no_termination`` is no reading of the text or the code: the repaired imagination without the
+termination head, what the literal IM2C of experiments/mountaincar-repairs.yaml (IM2C-no-repair) and
+mountaincar-controls.yaml ran (they turned ``model_termination`` off and left the imagination keys at their
+defaults). For IM2C, which does not imagine, it means no termination head and the held-out sets the gate
+reads: every 4th real transition of a node is held out from its model's training, unlike in the ``paper``
+profile."""
+
+
+@dataclass(frozen=True)
+class Readings:
+    """The reading of every mechanism of one `DualConfig` (`resolve`)."""
+
+    regions: Regions
+    world_models: WorldModels
+    reliability: Reliability
+    intrinsic: Intrinsic
+    planner: Planner
+    imagination: Imagination
+    held_out: HeldOut = field(default_factory=HeldOut)
+
+    @property
+    def needs_heldout(self) -> bool:
+        """Whether a reading uses held-out verdicts (reliability, intrinsic progress, imagination gate)."""
+        return (self.reliability.signal == "heldout" or self.intrinsic.signal == "progress"
+                or self.imagination.gate == "no_change_ratio")
+
+
+def resolve(dual: DualConfig) -> Readings:
+    """The readings ``dual`` names (``dual.regions``, ``dual.world_models``, ...)."""
+    return Readings(
+        regions=REGIONS[dual.regions],
+        world_models=WORLD_MODELS[dual.world_models],
+        reliability=RELIABILITY[dual.reliability],
+        intrinsic=INTRINSIC[dual.intrinsic],
+        planner=PLANNER[dual.planner],
+        imagination=IMAGINATION[dual.imagination],
+    )
+
+
+TABLES: dict[str, dict[str, Any]] = {
+    "regions": REGIONS,
+    "world_models": WORLD_MODELS,
+    "reliability": RELIABILITY,
+    "intrinsic": INTRINSIC,
+    "planner": PLANNER,
+    "imagination": IMAGINATION,
+}
+"""Each mechanism's field and its readings."""
+
+
+def upgrade_stored(stored: Mapping[str, Any]) -> dict[str, Any]:
+    """A stored config (a run's config.yaml, a checkpoint's config) written with the old dual switches,
+    in the readings' words: each mechanism's old values (the old default where a key is absent) become the
+    reading that holds exactly them. Raises ConfigError for old values that are no reading. A config in the
+    new words comes back unchanged; user input (`core.config.load_config`) is never upgraded."""
+    data = {section: dict(values) if isinstance(values, Mapping) else values
+            for section, values in stored.items()}
+    dual = data.get("dual")
+    if not isinstance(dual, dict):
+        return data
+    old_reliability = dual.get("reliability") in ("lp", "heldout")
+    old = {key for key in (*OLD_DUAL_SWITCHES, *OLD_DUAL_CONSTANTS, *OLD_DUAL_REJECTED) if key in dual}
+    if not old_reliability:
+        old.discard("reliability")
+    if not old:
+        return data
+    for key, value in OLD_DUAL_REJECTED.items():
+        if key in dual and dual.pop(key) != value:
+            raise ConfigError(f"stored dual.{key} is a removed reading (only {value!r} remains)")
+    for key, attribute in OLD_DUAL_CONSTANTS.items():
+        if key in dual:
+            constant = getattr(HeldOut(), attribute)
+            if coerce(dual.pop(key), type(constant), f"dual.{key}") != constant:
+                raise ConfigError(f"stored dual.{key} differs from HeldOut.{attribute} = {constant}")
+    for name, table in TABLES.items():
+        keys = [key for key, (field_name, _) in OLD_DUAL_SWITCHES.items() if field_name == name]
+        if not any(key in old for key in keys):
+            continue
+        hints = {f.name: f.type for f in dataclasses.fields(next(iter(table.values())))}
+        wanted = dataclasses.asdict(table["repaired"])  # the old defaults
+        for key in keys:
+            if key in dual and (key != "reliability" or old_reliability):
+                attribute = OLD_DUAL_SWITCHES[key][1]
+                value = dual.pop(key)
+                wanted[attribute] = value if hints[attribute] != "bool" else coerce(value, bool, key)
+        if name == "world_models" and not (wanted["target"] == "absolute" and wanted["space"] == "latent"):
+            wanted["output"] = "linear"  # the old rule: sigmoid heads only for the absolute raw-latent model
+        matches = [reading for reading, values in table.items() if dataclasses.asdict(values) == wanted]
+        if not matches:
+            raise ConfigError(f"stored dual settings {wanted} are no reading of dual.{name}")
+        dual[name] = matches[0]
+    return data

@@ -35,8 +35,16 @@ from core.dual.im2c import IM2C
 from core.dual.model_bank import ModelBank
 from core.dual.world_models import LocalWorldModels
 from core.envs.spec import EnvSpec
-from core.modelfree.agent import ModelFreeAgent, to_device
+from core.modelfree.agent import (
+    LearnerAgent,
+    Transition,
+    act_model_free,
+    learner_diagnostics,
+    store_extrinsic,
+    to_device,
+)
 from core.modelfree.learners import Learner
+from core.modelfree.replay import PixelReplay
 
 
 def make_im2c(config: Config, spec: EnvSpec, rng: np.random.Generator) -> IM2C:
@@ -83,16 +91,24 @@ class ValueExpansion:
         return expanded + discount * learner.bootstrap(phi)
 
 
-class MVE(ModelFreeAgent):
-    """MVE-DDPG: the model-free agent whose learner's target is expanded through one global latent model."""
+class MVE(LearnerAgent):
+    """MVE-DDPG: model-free acting and storing; the learner's target is expanded through one global latent
+    model."""
 
     def __init__(self, config: Config, spec: EnvSpec, rng: np.random.Generator) -> None:
         super().__init__(config, spec, rng)
+        self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)
         model_seed = int(rng.integers(0, 2**62))
         self.world = LocalWorldModels(config.dual, self.learner.latent_dim, spec.action_dim, regions=False,
                                       generator=torch.Generator().manual_seed(model_seed))
         self.learner.value_expansion = ValueExpansion(self.world.bank, config.dual.fixed_horizon)
         self._errors: list[float] = []
+
+    def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
+        return act_model_free(self, obs, explore)
+
+    def observe(self, transition: Transition) -> None:
+        store_extrinsic(self, transition)
 
     def learn_minibatch(self) -> dict[str, float]:
         """Eq. 5 on the minibatch's latents, then the learner's update with the expanded target."""
@@ -105,7 +121,7 @@ class MVE(ModelFreeAgent):
         return self.learner.update(batch)
 
     def episode_diagnostics(self) -> dict[str, float]:
-        out = super().episode_diagnostics()
+        out = learner_diagnostics(self.learner, self.steps, len(self.replay))
         out["dual/model_error"] = float(np.mean(self._errors)) if self._errors else math.nan
         out["dual/horizon"] = float(self.config.dual.fixed_horizon)
         self._errors = []

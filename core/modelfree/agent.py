@@ -213,18 +213,30 @@ class ModelFreeAgent(LearnerAgent):
         self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)
 
     def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
-        latent = self.encode(obs)
-        if not explore:
-            return self.greedy(latent)
-        return self.explore(self.actor(latent)[0].numpy(), latent)
+        return act_model_free(self, obs, explore)
 
     def observe(self, transition: Transition) -> None:
-        self.replay.add(transition.action, transition.reward, transition.next_obs, transition.terminated,
-                        reward_ext=transition.reward)
-        self.steps += 1
+        store_extrinsic(self, transition)
 
     def episode_diagnostics(self) -> dict[str, float]:
         return learner_diagnostics(self.learner, self.steps, len(self.replay))
+
+
+def act_model_free(
+    agent: LearnerAgent, obs: np.ndarray, explore: bool
+) -> tuple[np.ndarray, dict[str, float]]:
+    """Model-free acting: μ(f(s)), with the learner's exploration around it when ``explore``."""
+    latent = agent.encode(obs)
+    if not explore:
+        return agent.greedy(latent)
+    return agent.explore(agent.actor(latent)[0].numpy(), latent)
+
+
+def store_extrinsic(agent: LearnerAgent, transition: Transition) -> None:
+    """The real transition into the pixel replay with its extrinsic reward; one more env step."""
+    agent.replay.add(transition.action, transition.reward, transition.next_obs, transition.terminated,
+                     reward_ext=transition.reward)
+    agent.steps += 1
 
 
 def learner_diagnostics(learner: Learner, steps: int, replay_size: int) -> dict[str, float]:

@@ -21,4 +21,4 @@ def test_sb3_peer_runs_when_installed():
 
 def test_unknown_method_is_a_value_error():
     with pytest.raises(ValueError, match="unknown bench method"):
-        measure(algos=("td3",))
+        measure(algos=("ppo",))

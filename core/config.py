@@ -248,8 +248,9 @@ class DualConfig:
     e_max_relative: float | None = None
     """Scale-free e_max (dual/itm_resolution.py): when set to ρ, e_max = ρ · the median pairwise L2 distance
     among 256 of the last 2048 latents, refreshed every 256 states; None: absolute e_max (paper, released).
-    It is the raw latent's scale-free resolution (the first study's ablation): set, it needs ``regions``
-    paper or released (`check_config`)."""
+    It is the raw latent's scale-free resolution (the first study's ablation): set, it puts the map in raw
+    latent coordinates whatever ``regions`` says (so it is meant with ``regions`` paper or released; the REST
+    schema, which states no rule between fields, accepts it with any reading)."""
     reliability: Literal["paper", "released", "repaired"] = "repaired"
     """Arbitration's reliability and Eq. 8-9 (Section 2.3.2): paper — LP ≥ 0 of squared errors, unnormalised,
     a new node unreliable until W+1 means exist; released — LP ≥ 0 of error norms, LP divided by the max
@@ -737,11 +738,6 @@ def check_config(config: Config) -> None:
     for key in _POSITIVE:
         if value(key) <= 0:
             raise ConfigError(f"bad value for {key}: {value(key)!r} (must be > 0)")
-    if config.dual.e_max_relative is not None and config.dual.regions == "repaired":
-        raise ConfigError(
-            "bad value for dual.e_max_relative: it puts the map in raw latent coordinates; "
-            "set dual.regions to paper or released with it"
-        )
     if not config.net.conv_channels or min(config.net.conv_channels) < 1:
         raise ConfigError("bad value for net.conv_channels: needs at least one positive channel count")
     if not config.net.mlp_hidden or min(config.net.mlp_hidden) < 1:

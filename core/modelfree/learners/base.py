@@ -69,7 +69,7 @@ from core.modelfree.networks import (
 )
 from core.modelfree.replay import LatentBatch, PixelBatch
 
-ValueExpansion = Callable[["Learner", torch.Tensor], torch.Tensor]
+ValueExpansionFn = Callable[["Learner", torch.Tensor], torch.Tensor]
 """``(learner, φ′) -> V(φ′)``: a model-based replacement of the learner's bootstrap value (MVE)."""
 
 
@@ -144,7 +144,7 @@ class Learner(nn.Module):
         self.actor_optimizer = torch.optim.Adam(self.actor.parameters(), lr=agent.actor_lr)
         self.updates = 0
         """Minibatch updates made (TD3's delay counts them)."""
-        self.value_expansion: ValueExpansion | None = None
+        self.value_expansion: ValueExpansionFn | None = None
 
     # -- acting ----------------------------------------------------------------------------------
     @torch.no_grad()
@@ -283,13 +283,13 @@ class Learner(nn.Module):
             **_actor_extras(actor),
         }
 
-    def update_targets(self, actor: bool = True) -> None:
-        """τ update of the target encoder, critic and (``actor``: where it exists) actor (Alg. 2, l. 28)."""
+    def update_targets(self) -> None:
+        """τ update of the target encoder, critic and (where it exists) actor (Algorithm 2, line 28)."""
         cfg = self.agent_config
         tau = cfg.tau
         soft_update(self.target_encoder, self.encoder, tau if cfg.encoder_tau is None else cfg.encoder_tau)
         soft_update(self.target_critic, self.critic, tau)
-        if actor and self.target_actor_kept:
+        if self.target_actor_kept:
             soft_update(self.target_actor, self.actor, tau)
 
     @torch.no_grad()

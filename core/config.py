@@ -151,6 +151,10 @@ class NetConfig:
     latent_activation: Literal["auto", "relu", "layernorm_tanh"] = "auto"
     """The encoder's last activation: relu (Fig. 1) or LayerNorm + tanh (SAC-AE's bounded latent); auto: relu
     for ddpg/cacla, layernorm_tanh for td3/sac."""
+    observation_scaling: Literal["bounds", "none"] = "bounds"
+    """Vector observations only. bounds: each dimension with finite bounds is mapped to [-1, 1] before the
+    encoder (or, with ``encoder = none``, before the MLP heads); none: the raw observation, as SB3 and CleanRL
+    feed it (the parity checks against SB3 set it). Images are always uint8 / 255."""
 
 
 @dataclass

@@ -185,6 +185,24 @@ def report_command(
         typer.echo(f"{name}: {path}")
 
 
+@app.command("archive")
+def archive_command(
+    directory: Path = typer.Argument(..., help="An experiment folder (OUT/<name>)."),
+    to: Path = typer.Option(
+        Path("results"), "--to", help="Archives folder (cells land in TO/<name>/, merged with earlier ones)."
+    ),
+) -> None:
+    """Copy the numbers of every finished cell (metrics.csv, summary.json, config.yaml; no checkpoints) into
+    TO/<name>, small enough for git; `dualsys experiment report TO/<name>` reads it, and a grid run in pieces
+    merges into one archive."""
+    from core.experiments.archive import archive_experiment
+
+    with user_errors():
+        result = archive_experiment(directory, to)
+    typer.echo(f"{result.directory}: {len(result.cells)} finished cells archived")
+    typer.echo(f"report: dualsys experiment report {result.directory}")
+
+
 def _interval(summary: dict[str, Any]) -> str:
     if summary.get("iqm") is None:
         return "–"

@@ -3,12 +3,13 @@ parallel (local processes or Ray tasks), resumable, and reported with rliable st
 learning curves. No HTTP and no CLI here: ``dualsys experiment`` and the job service call these functions.
 May import every other package of ``core`` (it sits on ``core.runs``); nothing in ``core`` imports it.
 Inside, the modules stack: spec → runners → sb3_zoo → sb3_settings → sb3_peer → dispatch → cells →
-runner/local/ray → report.
+runner/local/ray → report → archive.
 
 * :func:`load_experiment` (``cells``) — read and validate an experiment file, every cell's config resolved.
 * :func:`expand_cells` / :func:`plan_experiment` — the grid's cells and their run directories.
 * :func:`run_experiment` (``runner``) — run what is not done; idempotent and resumable.
 * :func:`build_report` / :func:`write_report` (``report``) — statistics, report.md and figures.
+* :func:`~core.experiments.archive.archive_experiment` — the done cells' numbers, no checkpoints, for git.
 """
 
 from core.experiments.cells import Cell, cell_state, expand_cells, experiment_dir, load_experiment, run_cell

@@ -250,15 +250,17 @@ ObservationEncoder = Encoder | VectorEncoder
 
 def make_encoder(config: NetConfig, spec: EnvSpec, ac: str = "ddpg") -> ObservationEncoder:
     """The encoder f_ω the observation's kind and ``net.encoder`` call for (images: convolutional; vectors: an
-    MLP, or none); its last activation is ``net.latent_activation`` resolved for actor-critic ``ac``."""
+    MLP, or none); its last activation is ``net.latent_activation`` resolved for actor-critic ``ac``; vectors
+    are scaled by their bounds unless ``net.observation_scaling = none``."""
     latent = resolved_latent_activation(config, ac)
     if spec.obs_kind == "image":
         if config.encoder == "none":
             raise ValueError("net.encoder=none is for vector observations; images need the learned encoder")
         return Encoder(config, tuple(spec.obs_shape), latent)  # type: ignore[arg-type]
+    low, high = (spec.obs_low, spec.obs_high) if config.observation_scaling == "bounds" else (None, None)
     if config.encoder == "none":
-        return ScaledObservation(int(spec.obs_shape[0]), spec.obs_low, spec.obs_high)
-    return VectorEncoder(config, int(spec.obs_shape[0]), spec.obs_low, spec.obs_high, latent)
+        return ScaledObservation(int(spec.obs_shape[0]), low, high)
+    return VectorEncoder(config, int(spec.obs_shape[0]), low, high, latent)
 
 
 def resolved_latent_activation(config: NetConfig, ac: str) -> str:

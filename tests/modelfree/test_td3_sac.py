@@ -66,6 +66,14 @@ def test_textbook_network_reads_the_scaled_observation_through_mlp_heads():
         _learner("sac", spec=IMAGE)
 
 
+def test_observation_scaling_none_feeds_the_raw_observation_like_sb3():
+    for encoder in ("none", "learned"):
+        learner = _learner("td3", f"net.encoder={encoder}", "net.observation_scaling=none")
+        obs = torch.tensor([[1.0, -1.0, 8.0], [0.0, 0.5, -4.0]])
+        torch.testing.assert_close(learner.encoder.prepare(obs), obs)
+    assert torch.equal(_learner("td3").encoder.prepare(obs)[:, 2], torch.tensor([1.0, -0.5]))
+
+
 def test_td3_target_is_the_smaller_target_critic_at_a_smoothed_target_action():
     learner = _learner("td3", "agent.target_noise=0.3", "agent.target_noise_clip=0.4")
     with torch.no_grad():  # targets apart from the online networks, so the minimum is not trivially either

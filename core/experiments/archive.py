@@ -1,0 +1,83 @@
+"""Archives: an experiment's numbers without its checkpoints, small enough to keep in git.
+
+A grid's folder holds checkpoints and replay-free but still large run directories; what its report reads is
+far smaller: per done cell ``metrics.csv`` and ``summary.json`` (with ``config.yaml``, ``command.txt`` and an
+SB3 peer's ``sb3_hyperparams.json`` to say how it ran). :func:`archive_experiment` copies those into
+``DEST/<experiment>/`` in the grid's own layout, so ``dualsys experiment report DEST/<experiment>`` works on
+it, and a grid run in pieces (seeds on different days or machines) merges into one archive: the stored
+experiment.yaml becomes the union of the methods and seeds archived so far. Pieces that disagree on anything
+else (budget, task, profile, common overrides) are refused rather than mixed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+from core.experiments.cells import EXPERIMENT_FILE, cell_state
+from core.experiments.report import find_experiment_dir
+from core.experiments.spec import ExperimentError, ExperimentSpec, read_experiment
+from core.runs.run_dir import atomic_write_text
+
+ARCHIVED_FILES: tuple[str, ...] = (
+    "metrics.csv",
+    "summary.json",
+    "config.yaml",
+    "command.txt",
+    "sb3_hyperparams.json",
+)
+"""The files of a done cell an archive keeps (those a cell lacks are skipped)."""
+
+MERGED_KEYS: tuple[str, ...] = ("methods", "seeds", "description")
+"""Experiment keys two pieces of one archive may differ in (methods and seeds are united)."""
+
+
+@dataclass(frozen=True)
+class ArchiveResult:
+    directory: Path
+    """``DEST/<experiment>``."""
+    cells: tuple[str, ...]
+    """``label/reward/seed-s`` of every cell copied."""
+
+
+def archive_experiment(source: Path | str, dest: Path | str) -> ArchiveResult:
+    """Copy the done cells of the experiment folder ``source`` into ``dest/<name>`` (module docstring).
+    Raises :class:`ExperimentError` when ``source`` holds no experiment or the archive there is of a
+    different grid."""
+    root = find_experiment_dir(source)
+    spec = read_experiment(root / EXPERIMENT_FILE)
+    target = Path(dest) / spec.name
+    stored = target / EXPERIMENT_FILE
+    merged = merge_pieces(read_experiment(stored), spec) if stored.is_file() else spec
+    copied: list[str] = []
+    for run_dir in sorted(root.glob("*/*/seed-*")):
+        if not run_dir.is_dir() or cell_state(run_dir) != "done":
+            continue
+        relative = run_dir.relative_to(root)
+        out = target / relative
+        out.mkdir(parents=True, exist_ok=True)
+        for name in ARCHIVED_FILES:
+            if (run_dir / name).is_file():
+                shutil.copyfile(run_dir / name, out / name)
+        copied.append(relative.as_posix())
+    target.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(stored, merged.to_yaml())
+    return ArchiveResult(target, tuple(copied))
+
+
+def merge_pieces(archived: ExperimentSpec, piece: ExperimentSpec) -> ExperimentSpec:
+    """One experiment from two pieces of one grid: methods united by label (``piece`` wins on a label both
+    name), seeds united; any other difference is an :class:`ExperimentError` naming the key."""
+    old, new = archived.to_dict(), piece.to_dict()
+    for key in sorted({*old, *new} - set(MERGED_KEYS)):
+        if old.get(key) != new.get(key):
+            raise ExperimentError(
+                f"the archive of {archived.name!r} has {key}={old.get(key)!r}, this run {new.get(key)!r}: "
+                "not pieces of one grid (archive it under another name)"
+            )
+    labels = {method.label for method in piece.methods}
+    methods = tuple(m for m in archived.methods if m.label not in labels) + piece.methods
+    seeds = tuple(sorted({*archived.seeds, *piece.seeds}))
+    return dataclasses.replace(piece, methods=methods, seeds=seeds)

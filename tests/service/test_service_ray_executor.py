@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -32,24 +33,32 @@ def local_ray() -> Iterator[None]:
     ray.shutdown()
 
 
-@pytest.fixture()
-def supervisor(local_ray: None, tmp_path: Path) -> Iterator[Supervisor]:
+def _supervisor(tmp_path: Path, **settings_changes: float) -> Supervisor:
     settings = ServiceSettings(
-        database_url=f"sqlite:///{tmp_path / 'ray.db'}",
-        artifacts=tmp_path / "artifacts",
-        executor="ray",
-        workers=1,
-        poll_interval_s=0.1,
-        heartbeat_interval_s=0.5,
+        **{
+            "database_url": f"sqlite:///{tmp_path / 'ray.db'}",
+            "artifacts": tmp_path / "artifacts",
+            "executor": "ray",
+            "workers": 1,
+            "poll_interval_s": 0.1,
+            "heartbeat_interval_s": 0.5,
+            **settings_changes,
+        }
     )
     database = Database(settings.database_url)
     upgrade_service(database.engine)
     running = Supervisor(settings, database)
     assert isinstance(running.executor, RayExecutor)
     running.start()
+    return running
+
+
+@pytest.fixture()
+def supervisor(local_ray: None, tmp_path: Path) -> Iterator[Supervisor]:
+    running = _supervisor(tmp_path)
     yield running
     running.stop()
-    database.dispose()
+    running.database.dispose()
 
 
 def _submit(supervisor: Supervisor, kind: str, spec: dict) -> int:
@@ -136,3 +145,28 @@ def test_ray_records_are_committed_before_the_job_checkpoints_them(supervisor: S
         assert stored >= episode, (stored, episode)
         samples += 1
     assert samples > 0 and _finished(supervisor, job_id).status == "succeeded"
+
+
+def test_a_task_waiting_longer_than_the_heartbeat_timeout_to_start_is_not_taken_for_hung(
+    local_ray: None, tmp_path: Path
+) -> None:
+    """The only CPU is busy for 4 s, four heartbeat timeouts: the job's task waits for it without running, and
+    so without sending heartbeats (as a cold worker importing torch on a loaded machine does). It must run
+    then, at its first attempt, not be cancelled as hung."""
+
+    @ray.remote(num_cpus=1)
+    def hold_the_cpu(seconds: float) -> None:
+        time.sleep(seconds)
+
+    blocker = hold_the_cpu.remote(4.0)
+    ray.wait([blocker], timeout=0.5)  # scheduled and holding the CPU before the job arrives
+    running = _supervisor(tmp_path, heartbeat_interval_s=0.2, heartbeat_timeout_s=1.0)
+    try:
+        job_id = _submit(running, "probe", {"episodes": 2, "interval_s": 0.05})
+        job = _finished(running, job_id)
+        assert job.status == "succeeded", job.reason
+        assert job.attempt == 1
+    finally:
+        running.stop()
+        running.database.dispose()
+        ray.get(blocker)

@@ -13,6 +13,7 @@ import contextlib
 import queue
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -105,7 +106,7 @@ class RayExecutor:
         code, detail = 0, f"ray task of job {job.id} finished"
         try:
             outcome = follow_job(
-                (self.ray.get(reference) for reference in entry.stream),
+                self._events(entry),
                 recorder=recorder,
                 registry=self.registry,
                 job=job,
@@ -125,6 +126,22 @@ class RayExecutor:
             else:  # the worker or node died: let the supervisor recover the job
                 code, detail = 1, f"ray task of job {job.id} was lost ({_cause_message(error)})"
         self._exits.put(WorkerExit(job_id=job.id, returncode=code, detail=detail))
+
+    def _events(self, entry: _RayJob) -> Iterator[dict[str, Any]]:
+        """The task's events in order, with heartbeats from the driver until the first one arrives.
+
+        Before its first event the task may be waiting for a CPU or for its worker process to start and import
+        the job's libraries (over 20 s, the default heartbeat timeout, on a loaded 2-core machine, where the
+        supervisor then took it for hung and cancelled it three times). It cannot send heartbeats before it
+        runs; Ray vouches for it meanwhile (a worker that fails to start raises from ``ray.get``), so the
+        driver sends them. From its first event on, the task's own heartbeats prove it alive.
+        """
+        while not self.ray.wait([entry.stream], timeout=self.settings.heartbeat_interval_s)[0]:
+            if entry.cancelled.is_set():
+                break
+            yield {"type": "heartbeat"}
+        for reference in entry.stream:
+            yield self.ray.get(reference)
 
     def _cancel_errors(self) -> tuple[type[BaseException], ...]:
         exceptions = self.ray.exceptions

@@ -191,6 +191,9 @@ def archive_command(
     to: Path = typer.Option(
         Path("results"), "--to", help="Archives folder (cells land in TO/<name>/, merged with earlier ones)."
     ),
+    file: Path = typer.Option(
+        None, "--file", help="The experiment file of the cells (default: the folder's, its last run's)."
+    ),
 ) -> None:
     """Copy the numbers of every finished cell (metrics.csv, summary.json, config.yaml; no checkpoints) into
     TO/<name>, small enough for git; `dualsys experiment report TO/<name>` reads it, and a grid run in pieces
@@ -198,7 +201,8 @@ def archive_command(
     from core.experiments.archive import archive_experiment
 
     with user_errors():
-        result = archive_experiment(directory, to)
+        source = resolve_experiment_file(file) if file is not None else None
+        result = archive_experiment(directory, to, source)
     typer.echo(f"{result.directory}: {len(result.cells)} finished cells archived")
     typer.echo(f"report: dualsys experiment report {result.directory}")
 

@@ -12,11 +12,12 @@ else (budget, task, profile, common overrides) are refused rather than mixed.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.experiments.cells import EXPERIMENT_FILE, cell_state
+from core.experiments.cells import EXPERIMENT_FILE, cell_dir, cell_state
 from core.experiments.report import find_experiment_dir
 from core.experiments.spec import ExperimentError, ExperimentSpec, read_experiment
 from core.runs.run_dir import atomic_write_text
@@ -42,18 +43,26 @@ class ArchiveResult:
     """``label/reward/seed-s`` of every cell copied."""
 
 
-def archive_experiment(source: Path | str, dest: Path | str) -> ArchiveResult:
+def archive_experiment(
+    source: Path | str, dest: Path | str, experiment_file: Path | str | None = None
+) -> ArchiveResult:
     """Copy the done cells of the experiment folder ``source`` into ``dest/<name>`` (module docstring).
-    Raises :class:`ExperimentError` when ``source`` holds no experiment or the archive there is of a
-    different grid."""
+
+    ``experiment_file`` is the file the cells belong to; by default the folder's experiment.yaml, which is the
+    file of its *last* run (a run of a subset of a grid's methods or seeds into the same folder leaves only
+    that subset there). Only cells of its methods and seeds are archived. Raises :class:`ExperimentError` when
+    ``source`` holds no experiment or the archive there is of a different grid."""
     root = find_experiment_dir(source)
-    spec = read_experiment(root / EXPERIMENT_FILE)
+    spec = read_experiment(experiment_file if experiment_file is not None else root / EXPERIMENT_FILE)
     target = Path(dest) / spec.name
     stored = target / EXPERIMENT_FILE
     merged = merge_pieces(read_experiment(stored), spec) if stored.is_file() else spec
     copied: list[str] = []
-    for run_dir in sorted(root.glob("*/*/seed-*")):
-        if not run_dir.is_dir() or cell_state(run_dir) != "done":
+    for label, reward, seed in itertools.product(
+        [method.label for method in spec.methods], spec.rewards, spec.seeds
+    ):
+        run_dir = cell_dir(root, label, reward, seed)
+        if cell_state(run_dir) != "done":
             continue
         relative = run_dir.relative_to(root)
         out = target / relative

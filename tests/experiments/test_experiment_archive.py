@@ -42,6 +42,18 @@ def test_two_pieces_archive_into_the_report_of_the_whole_grid(made_up: Path, tmp
     assert build_report(archived)["methods"] == build_report(made_up)["methods"]
 
 
+def test_the_experiment_file_given_decides_which_cells_belong(made_up: Path, tmp_path: Path) -> None:  # noqa: F811
+    """A run of one method into the grid's folder leaves only that method in its experiment.yaml; the whole
+    file, given, archives every method's cells, and a file naming fewer archives fewer."""
+    whole = tmp_path / "whole.yaml"
+    shutil.copyfile(made_up / "experiment.yaml", whole)
+    spec = yaml.safe_load(whole.read_text())
+    only_m = {**spec, "methods": [m for m in spec["methods"] if m["label"] == "M"]}
+    (made_up / "experiment.yaml").write_text(yaml.safe_dump(only_m))
+    assert len(archive_experiment(made_up, tmp_path / "a").cells) == 4
+    assert len(archive_experiment(made_up, tmp_path / "b", whole).cells) == 8
+
+
 def test_pieces_of_different_grids_are_refused(made_up: Path, tmp_path: Path) -> None:  # noqa: F811
     archive_experiment(made_up, tmp_path / "results")
     other = _piece(made_up, tmp_path / "other", [0])

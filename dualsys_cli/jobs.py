@@ -61,7 +61,9 @@ def submit_train(
     episodes: int = typer.Option(None, "--episodes", min=1),
     steps: int = typer.Option(None, "--steps", min=1),
     minutes: float = typer.Option(None, "--minutes", min=0.0),
-    profile: str = typer.Option("default", "--profile", help="default | paper."),
+    profile: str = typer.Option(
+        "auto", "--profile", help="default | paper | vector; auto: vector for vector observations."
+    ),
     overrides: list[str] = typer.Option(None, "--set", help="section.key=value (repeatable)."),
     ac: str = typer.Option(None, "--ac", help="The learner: ddpg | cacla | td3 | sac."),
     url: str = URL,

@@ -46,22 +46,6 @@ def _run_name(config: Any) -> str:
     return config.env.id.replace("/", "-").replace(":", "-")
 
 
-def _observation_kind(env_id: str, config: Any) -> str:
-    """Whether ``env_id`` gives images or vectors (what ``--profile auto`` picks by); builds the env once."""
-    import dataclasses
-
-    from core.config import NICO_GRASP_ID
-    from core.envs.gym_env import make_env
-
-    if env_id == NICO_GRASP_ID:
-        return "image"
-    adapted = make_env(dataclasses.replace(config.env, id=env_id))
-    try:
-        return adapted.spec.obs_kind
-    finally:
-        adapted.env.close()
-
-
 def build_config(
     *,
     profile: str,
@@ -78,7 +62,8 @@ def build_config(
     minutes: float | None,
 ) -> Any:
     """Resolve the run's Config from the options (see the module docstring)."""
-    from core.config import Config, ConfigError, load_config, read_config_file, set_value
+    from core.config import Config, ConfigError, read_config_file, set_value
+    from core.runs.profile_choice import load_run_config
 
     if resume is not None:
         saved = resume / "config.yaml"
@@ -95,11 +80,7 @@ def build_config(
                 raise ConfigError(f"override {item!r} is not of the form section.key=value")
             set_value(config, key.strip(), raw.strip())
     else:
-        config = load_config("default" if profile == "auto" else profile, overrides, config_file)
-    if profile == "auto" and resume is None:
-        kind = _observation_kind(env if env is not None else config.env.id, config)
-        if kind == "vector":
-            config = load_config("vector", overrides, config_file)
+        config = load_run_config(profile, overrides, config_file, env_id=env)
     if algo is not None:
         config.run.algo = algo
     if ac is not None:

@@ -86,10 +86,11 @@ class TrainSpec(SpecBase):
         default=None, gt=0, le=525_600, description="Wall-clock budget (--minutes)."
     )
     profile: str = Field(
-        default="default",
+        default="auto",
         min_length=1,
         max_length=32,
-        description="Config profile.",
+        description="Config profile; auto (as `dualsys train`): vector for a task with vector observations, "
+        "default otherwise.",
         json_schema_extra=_choices(lambda: _config_profiles()),
     )
     overrides: dict[str, Any] = Field(
@@ -215,9 +216,10 @@ SPEC_MODELS: dict[str, type[SpecBase]] = {
 def _config_profiles() -> set[str] | None:
     try:
         from core.config import PROFILES
+        from core.runs.profile_choice import AUTO_PROFILE
     except ImportError:  # pragma: no cover - core not installed
         return None
-    return set(PROFILES)
+    return {*PROFILES, AUTO_PROFILE}
 
 
 def _algo_names() -> set[str] | None:
@@ -235,7 +237,8 @@ def _config_error(profile: str, overrides: list[str]) -> str | None:
     except ImportError:  # pragma: no cover - core not installed
         return None
     try:
-        load_config(profile if profile in (_config_profiles() or {profile}) else "default", overrides)
+        known = (_config_profiles() or {profile}) - {"auto"}  # auto's choice needs the env: prepare_train
+        load_config(profile if profile in known else "default", overrides)
     except ConfigError as error:
         return str(error)
     return None

@@ -120,8 +120,9 @@ def jobs_page(
 def _train_choices() -> dict[str, list[str]]:
     """The submit form's choices: the methods and profiles a train spec accepts."""
     from core.config import PROFILES
+    from core.runs.profile_choice import AUTO_PROFILE
 
-    return {"algos": list(algo_names()), "profiles": sorted(PROFILES)}
+    return {"algos": list(algo_names()), "profiles": [AUTO_PROFILE, *sorted(PROFILES)]}
 
 
 @router.get("/jobs/rows", response_class=HTMLResponse)

@@ -21,12 +21,13 @@ def prepare_train(spec: BaseModel, registry: PolicyRegistry) -> Submission:
     """Resolve the config now, so a bad combination is a 422 and the job records what it ran."""
     assert isinstance(spec, TrainSpec)
     from core.config import ConfigError, check_config
+    from core.envs.gym_env import EnvError
     from core.runs.methods import resolve_algo
 
     try:
         config = resolve_algo(load_train_config(spec))
         check_config(config)
-    except ConfigError as error:
+    except (ConfigError, EnvError) as error:  # EnvError: profile auto builds the env to see its observations
         raise SpecRejected(f"spec: {error}", field="spec") from error
     return Submission(resolved={"config": config.to_dict()}, progress_total=config.run.episodes)
 
@@ -51,10 +52,11 @@ def run_train(context: JobContext) -> dict[str, Any]:
 
 
 def load_train_config(spec: TrainSpec):  # type: ignore[no-untyped-def]
-    """The run's Config: the profile, then `overrides`, then the named options (as `dualsys train`)."""
-    from core.config import load_config
+    """The run's Config: the profile (auto: by the task's observations), then `overrides`, then the named
+    options (as `dualsys train`)."""
+    from core.runs.profile_choice import load_run_config
 
-    return load_config(spec.profile, spec.config_overrides())
+    return load_run_config(spec.profile, spec.config_overrides())
 
 
 def run_experiment_cell(context: JobContext) -> dict[str, Any]:

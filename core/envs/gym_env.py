@@ -94,7 +94,8 @@ def make_env(config: EnvConfig, *, evaluation: bool = False, rescale_actions: bo
 
 
 def make_gym_env(env_id: str, kwargs: dict[str, Any] | None = None) -> gym.Env:
-    """``gymnasium.make(env_id, **kwargs)`` with one-line errors (unknown id, missing extra, bad kwargs)."""
+    """``gymnasium.make(env_id, **kwargs)`` with one-line errors (unknown id, missing extra, bad kwargs, an
+    env whose constructor fails, e.g. a retired MuJoCo v2/v3 id that raises ImportError)."""
     namespace = env_id.split("/", 1)[0] if "/" in env_id else None
     if namespace == "dm_control":
         _quiet_mujoco_gl()
@@ -114,6 +115,9 @@ def make_gym_env(env_id: str, kwargs: dict[str, Any] | None = None) -> gym.Env:
         raise EnvError(f"unknown env id {env_id!r}: {first} (list the ids with `dualsys env list`)") from None
     except TypeError as error:
         raise EnvError(f"bad env.kwargs for {env_id}: {error}") from None
+    except Exception as error:  # the env's own constructor failed (a missing optional package, its checks)
+        first = str(error).splitlines()[0] if str(error) else ""
+        raise EnvError(f"cannot build {env_id}: {type(error).__name__}: {first}") from None
 
 
 def adapt(env: gym.Env, *, rescale_actions: bool = True) -> AdaptedEnv:

@@ -3,7 +3,9 @@ the default, and a service train job's default).
 
 Vector observations get the ``vector`` profile (the textbook networks, under which every learner learns
 Pendulum-v1 in 20k steps: docs/results.md, issue 28); images, NicoGrasp's among them, get ``default`` (the
-paper's critic-autoencoder). Telling which needs the env built once, except for NicoGrasp.
+paper's critic-autoencoder). Telling which needs the env built once, except for NicoGrasp; a task that cannot
+be built gets ``default``, and its run then fails building it with the one-line ``EnvError`` (a service job at
+its start, not at submission: the API accepts what its schema describes).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from core.config import NICO_GRASP_ID, Config, EnvConfig, load_config
-from core.envs.gym_env import make_env
+from core.envs.gym_env import EnvError, make_env
 
 AUTO_PROFILE = "auto"
 """The profile name that picks ``vector`` or ``default`` by the task's observations."""
@@ -45,6 +47,8 @@ def load_run_config(
         return load_config(profile, overrides, config_file)
     config = load_config("default", overrides, config_file)
     env = config.env if env_id is None else dataclasses.replace(config.env, id=env_id)
-    if observation_kind(env) == "vector":
-        return load_config("vector", overrides, config_file)
-    return config
+    try:
+        kind = observation_kind(env)
+    except EnvError:
+        return config  # the run fails building the env, with this error, where it would have anyway
+    return load_config("vector", overrides, config_file) if kind == "vector" else config

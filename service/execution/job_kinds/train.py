@@ -21,13 +21,12 @@ def prepare_train(spec: BaseModel, registry: PolicyRegistry) -> Submission:
     """Resolve the config now, so a bad combination is a 422 and the job records what it ran."""
     assert isinstance(spec, TrainSpec)
     from core.config import ConfigError, check_config
-    from core.envs.gym_env import EnvError
     from core.runs.methods import resolve_algo
 
     try:
         config = resolve_algo(load_train_config(spec))
         check_config(config)
-    except (ConfigError, EnvError) as error:  # EnvError: profile auto builds the env to see its observations
+    except ConfigError as error:
         raise SpecRejected(f"spec: {error}", field="spec") from error
     return Submission(resolved={"config": config.to_dict()}, progress_total=config.run.episodes)
 

@@ -171,8 +171,15 @@ def test_uniform_warmup_and_ou_noise():
                        "agent.noise_std=0.3", "agent.noise_final_std=0.3")
     rng = np.random.default_rng(0)
     zero = np.zeros(2, dtype=np.float32)
-    warm = np.stack([learner.explore(zero, torch.zeros(3), 5, rng) for _ in range(2000)])
-    assert warm.min() < -0.95 and warm.max() > 0.95 and abs(warm.mean()) < 0.05  # U(-1, 1)
+    # Warm-up (SB3's _sample_action): a = clip(u + x, -1, 1), u ~ U(-1, 1), and the OU process x runs from the
+    # first step. A copy of the generator replays the draws: u first, then the OU increment.
+    replay, x = copy.deepcopy(rng), np.zeros(2)
+    for _ in range(300):
+        action = learner.explore(zero, torch.zeros(3), 5, rng)
+        uniform = replay.uniform(-1.0, 1.0, size=2)
+        x = x - 0.15 * x * 0.01 + 0.3 * np.sqrt(0.01) * replay.normal(size=2)
+        np.testing.assert_allclose(action, np.clip(uniform + x, -1.0, 1.0), atol=1e-6)
+    assert np.all(learner.noise.x != 0.0)
     learner.begin_episode()
     path = np.stack([learner.explore(zero, torch.zeros(3), 500, rng) for _ in range(200)])[:, 0]
     # Ornstein-Uhlenbeck with dt = 0.01: consecutive draws are strongly correlated, i.i.d. noise is not.

@@ -19,7 +19,7 @@ The two updates:
 2. ``critic_passes`` Adam steps on ``λ_rec · L_rec + λ_Q · L_Q`` over the same minibatch (Eq. 4), updating
    encoder ω, decoder ω̃ and critic θ^Q together. L_rec is the mean squared pixel (or scaled vector) error
    (Keras' MSE in the released code; the paper writes the squared norm, which only rescales λ_rec), L_Q the
-   mean of Eq. 1 (twin critics: ½ Σ_i of each critic's mean, as SB3). Without a learned encoder
+   mean of Eq. 1 (twin critics: ``twin_loss_weight`` · Σ_i of each critic's mean, as SB3). Without a learned encoder
    (``net.encoder = none``) only the critic steps.
 3. the learner's ``policy_step`` on φ = f(s) from the last critic pass (detached: the actor never trains the
    encoder; reusing that forward pass saves one encoder evaluation per update).
@@ -105,11 +105,12 @@ def soft_update(target: nn.Module, online: nn.Module, tau: float) -> None:
         torch._foreach_lerp_(target_params, online_params, tau)
 
 
-def td_loss(q: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-    """Mean squared TD error of Eq. 1: ``q`` ``[N]`` (one critic) or ``[2, N]`` (twins: ½ Σ_i mean_i, SB3)."""
+def td_loss(q: torch.Tensor, target: torch.Tensor, twin_weight: float = 0.5) -> torch.Tensor:
+    """Mean squared TD error of Eq. 1: ``q`` ``[N]`` (one critic) or ``[2, N]`` (twins: ``twin_weight`` · Σ_i
+    mean_i, the learner's ``twin_loss_weight``)."""
     if q.dim() == 1:
         return (target - q).pow(2).mean()
-    return 0.5 * (target - q).pow(2).mean(dim=1).sum()
+    return twin_weight * (target - q).pow(2).mean(dim=1).sum()
 
 
 class Learner(nn.Module):
@@ -120,6 +121,9 @@ class Learner(nn.Module):
     """Two critics (TD3, SAC) or one (DDPG, CACLA)."""
     target_actor_kept = True
     """Whether a target actor μ′ exists (not in SAC)."""
+    twin_loss_weight = 0.5
+    """Twin critics' loss: this weight times the sum of their mean squared TD errors (SAC: ½, as SB3's SAC;
+    TD3: 1, as Fujimoto's reference code and SB3's TD3). Under Adam it matters only through ε."""
 
     def __init__(self, net: NetConfig, agent: AgentConfig, spec: EnvSpec) -> None:
         super().__init__()
@@ -221,7 +225,7 @@ class Learner(nn.Module):
             latent = self.encoder(obs)
             if self.decoder is not None:
                 rec_loss = (self.decoder(latent) - obs).pow(2).mean()
-            q_loss = td_loss(self.critic(latent, batch.action), target)
+            q_loss = td_loss(self.critic(latent, batch.action), target, self.twin_loss_weight)
             loss = cfg.lambda_q * q_loss
             if self.decoder is not None:
                 loss = cfg.lambda_rec * rec_loss + loss
@@ -258,9 +262,11 @@ class Learner(nn.Module):
             if self.decoder is not None:
                 rec_loss = (self.decoder(phi) - obs).pow(2).mean()
             frozen_critic = {name: p.detach() for name, p in self.critic.named_parameters()}
-            q_encoder = td_loss(functional_call(self.critic, frozen_critic, (phi, pixel.action)), y_pixel)
+            q_encoder = td_loss(
+                functional_call(self.critic, frozen_critic, (phi, pixel.action)), y_pixel, self.twin_loss_weight
+            )
             phi_all = phi.detach() if latent is None else torch.cat([phi.detach(), latent.latent])
-            q_critic = td_loss(self.critic(phi_all, action_all), y_all)
+            q_critic = td_loss(self.critic(phi_all, action_all), y_all, self.twin_loss_weight)
             if self.decoder is None:
                 loss = cfg.lambda_q * q_encoder + cfg.lambda_q * q_critic
             else:

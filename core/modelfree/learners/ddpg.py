@@ -18,7 +18,9 @@ from core.modelfree.noise import make_noise, uniform_warmup
 
 
 class NoiseExploring(Learner):
-    """A deterministic actor explored by additive noise (DDPG, CACLA, TD3): Algorithm 2, line 20."""
+    """A deterministic actor explored by additive noise (DDPG, CACLA, TD3): Algorithm 2, line 20. During the
+    uniform warm-up the noise perturbs the uniform action instead of the actor's, as SB3 does
+    (``core.modelfree.noise``)."""
 
     def __init__(self, net: NetConfig, agent: AgentConfig, spec: EnvSpec) -> None:
         super().__init__(net, agent, spec)
@@ -31,7 +33,7 @@ class NoiseExploring(Learner):
         self, action: np.ndarray, latent: torch.Tensor, step: int, rng: np.random.Generator
     ) -> np.ndarray:
         warmup = uniform_warmup(self.agent_config, step, self.action_dim, rng)
-        return warmup if warmup is not None else self.noise.perturb(action, step, rng)
+        return self.noise.perturb(action if warmup is None else warmup, step, rng)
 
     def extra_state(self) -> dict:
         return {"noise": self.noise.state()}

@@ -25,6 +25,7 @@ class TD3(NoiseExploring):
 
     name = "td3"
     twin_critics = True
+    twin_loss_weight = 1.0
     critic: TwinCritic
 
     @torch.no_grad()

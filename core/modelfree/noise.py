@@ -10,11 +10,12 @@ units, ``core.envs.spec``) and draw from the agent's seeded NumPy generator. σ 
   dt = 0.01, x reset to 0 every episode: temporally correlated noise (Lillicrap et al. 2016; SB3's
   ``OrnsteinUhlenbeckActionNoise``, which the zoo's MountainCar DDPG uses).
 
-During the uniform warm-up (``agent.warmup = uniform``, the first ``learning_starts`` steps) the noise perturbs
-the uniform action as it would the actor's, a ← clip(u + noise, −1, 1), so its process runs from the first step:
-SB3's ``OffPolicyAlgorithm._sample_action`` does exactly this. It matters: with the Ornstein-Uhlenbeck noise
-a process that starts only after the warm-up found MountainCarContinuous' flag within 2 000 steps in 0 of 6
-seeds, against 3 of 8 with SB3's order and 4 of 7 for SB3 itself (docs/results.md, issue 28).
+During the uniform warm-up (``agent.warmup = uniform``, the first ``learning_starts`` steps) the noise
+perturbs the uniform action as it would the actor's, a ← clip(u + noise, −1, 1), so its process runs from the
+first step: SB3's ``OffPolicyAlgorithm._sample_action`` does exactly this. It matters: with the
+Ornstein-Uhlenbeck noise, a process that starts only after the warm-up found MountainCarContinuous' flag
+within 2 000 steps in 0 of 6 seeds, against 3 of 8 with SB3's order and 4 of 7 for SB3 itself
+(docs/results.md, issue 28).
 """
 
 from __future__ import annotations

@@ -65,8 +65,9 @@ def _models(ac: str):
     reference = algo("MlpPolicy", gym.make(ENV), learning_rate=lr, batch_size=BATCH, seed=0, device="cpu",
                      policy_kwargs={"net_arch": HIDDEN})
     reference.set_logger(configure(None, []))
-    config = load_config("vector", [f"agent.ac={ac}", f"net.mlp_hidden={HIDDEN}", "net.observation_scaling=none",
-                                    f"agent.critic_lr={lr}", f"agent.actor_lr={lr}", f"agent.batch_size={BATCH}"])
+    overrides = [f"agent.ac={ac}", f"net.mlp_hidden={HIDDEN}", "net.observation_scaling=none",
+                 f"agent.critic_lr={lr}", f"agent.actor_lr={lr}", f"agent.batch_size={BATCH}"]
+    config = load_config("vector", overrides)
     ours = make_learner(config.net, config.agent, adapt(make_gym_env(ENV)).spec)
     pairs = _pairs(ac, reference, ours)
     with torch.no_grad():
@@ -90,10 +91,20 @@ def _minibatch(rng: np.random.Generator) -> tuple[np.ndarray, ...]:
 def _queued_rsample(draws: list[torch.Tensor]):
     """A ``Normal.rsample`` drawing the queued standard-normal tensors in turn (SB3's SAC samples with it)."""
 
-    def rsample(distribution, sample_shape=torch.Size()):  # noqa: B008 (torch's own default)
+    def rsample(distribution, sample_shape=torch.Size()):
         return distribution.loc + distribution.scale * draws.pop(0)
 
     return rsample
+
+
+def _queued_sample(actor, draws: list[torch.Tensor]):
+    """Our actor's ``sample`` with the queued standard-normal tensors as its noise, in turn."""
+    real_sample = type(actor).sample
+
+    def sample(latent, noise=None):
+        return real_sample(actor, latent, draws.pop(0))
+
+    return sample
 
 
 @pytest.mark.parametrize("ac", ["ddpg", "td3", "sac"])
@@ -108,10 +119,7 @@ def test_update_moves_every_network_as_stable_baselines3_does(ac, monkeypatch):
         if ac == "sac":  # SB3 draws for the current states, then the next; ours in its own order
             draw_obs, draw_next = torch.randn(BATCH, 1), torch.randn(BATCH, 1)
             monkeypatch.setattr(torch.distributions.Normal, "rsample", _queued_rsample([draw_obs, draw_next]))
-            queue = [draw_next, draw_obs]
-            real_sample = type(ours.actor).sample
-            monkeypatch.setattr(ours.actor, "sample", lambda latent, noise=None: real_sample(
-                ours.actor, latent, queue.pop(0)))
+            monkeypatch.setattr(ours.actor, "sample", _queued_sample(ours.actor, [draw_next, draw_obs]))
         reference._n_updates = update
         torch.manual_seed(update)  # TD3's target smoothing draws the same noise on both sides
         reference.train(gradient_steps=1, batch_size=BATCH)
@@ -120,5 +128,6 @@ def test_update_moves_every_network_as_stable_baselines3_does(ac, monkeypatch):
         assert _gap(pairs) < TOLERANCE, f"{ac}: networks part after update {update + 1}"
     if ac == "sac":
         assert abs(float(reference.log_ent_coef.detach()) - float(ours.log_alpha.detach())) < 1e-6
-    moved = max(float((layer.weight - w).abs().max()) for layer, w in zip(_linears(ours.actor), initial_actor))
+    now = [layer.weight for layer in _linears(ours.actor)]
+    moved = max(float((w - w0).abs().max()) for w, w0 in zip(now, initial_actor, strict=True))
     assert moved > 1e-3  # the updates did move the actor: the comparison is not between two idle copies

@@ -19,8 +19,8 @@ The two updates:
 2. ``critic_passes`` Adam steps on ``λ_rec · L_rec + λ_Q · L_Q`` over the same minibatch (Eq. 4), updating
    encoder ω, decoder ω̃ and critic θ^Q together. L_rec is the mean squared pixel (or scaled vector) error
    (Keras' MSE in the released code; the paper writes the squared norm, which only rescales λ_rec), L_Q the
-   mean of Eq. 1 (twin critics: ``twin_loss_weight`` · Σ_i of each critic's mean, as SB3). Without a learned encoder
-   (``net.encoder = none``) only the critic steps.
+   mean of Eq. 1 (twin critics: ``twin_loss_weight`` · Σ_i of each critic's mean, as SB3). Without a learned
+   encoder (``net.encoder = none``) only the critic steps.
 3. the learner's ``policy_step`` on φ = f(s) from the last critic pass (detached: the actor never trains the
    encoder; reusing that forward pass saves one encoder evaluation per update).
 
@@ -262,9 +262,8 @@ class Learner(nn.Module):
             if self.decoder is not None:
                 rec_loss = (self.decoder(phi) - obs).pow(2).mean()
             frozen_critic = {name: p.detach() for name, p in self.critic.named_parameters()}
-            q_encoder = td_loss(
-                functional_call(self.critic, frozen_critic, (phi, pixel.action)), y_pixel, self.twin_loss_weight
-            )
+            q_frozen = functional_call(self.critic, frozen_critic, (phi, pixel.action))
+            q_encoder = td_loss(q_frozen, y_pixel, self.twin_loss_weight)
             phi_all = phi.detach() if latent is None else torch.cat([phi.detach(), latent.latent])
             q_critic = td_loss(self.critic(phi_all, action_all), y_all, self.twin_loss_weight)
             if self.decoder is None:

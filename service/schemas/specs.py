@@ -234,10 +234,12 @@ def _algo_names() -> set[str] | None:
 def _config_error(profile: str, overrides: list[str]) -> str | None:
     try:
         from core.config import ConfigError, load_config
+        from core.runs.profile_choice import AUTO_PROFILE
     except ImportError:  # pragma: no cover - core not installed
         return None
     try:
-        known = (_config_profiles() or {profile}) - {"auto"}  # auto's choice needs the env: prepare_train
+        # auto's choice needs the env built: prepare_train resolves it
+        known = (_config_profiles() or {profile}) - {AUTO_PROFILE}
         load_config(profile if profile in known else "default", overrides)
     except ConfigError as error:
         return str(error)

@@ -38,7 +38,7 @@ def run_train(context: JobContext) -> dict[str, Any]:
         return run_experiment_cell(context)
     from core.runs.trainer import train  # torch is imported by the worker, not by the API process
 
-    config = load_train_config(spec)
+    config = resolved_train_config(context.resolved) or load_train_config(spec)
     resume = context.resume and (context.run_dir / LATEST_CHECKPOINT).is_file()
     summary = train(
         config,
@@ -56,6 +56,18 @@ def load_train_config(spec: TrainSpec):  # type: ignore[no-untyped-def]
     from core.runs.profile_choice import load_run_config
 
     return load_run_config(spec.profile, spec.config_overrides())
+
+
+def resolved_train_config(resolved: dict[str, Any]):  # type: ignore[no-untyped-def]
+    """The config `prepare_train` resolved at submission (what the job records it ran), or None for a job
+    stored without one. Training on it, not on the spec again, keeps the run equal to its record and spares
+    the worker a second env build for `profile: auto`."""
+    if "config" not in resolved:
+        return None
+    from core.config import Config
+    from core.dual.readings import upgrade_stored
+
+    return Config.from_dict(upgrade_stored(resolved["config"]))
 
 
 def run_experiment_cell(context: JobContext) -> dict[str, Any]:

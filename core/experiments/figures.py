@@ -5,6 +5,8 @@
   ``success_curves.png`` the same for the share of training episodes that end in a grasp.
 * ``scores.png`` — per reward mode (rows) and score (columns), each method's IQM with its 95% CI
   (the interval plot rliable recommends).
+* ``value_traces.png`` — one panel per method, every seed's critic value of the start state (solid) beside
+  the discounted return the episode earned (dashed, same colour) over env steps: overestimation in sight.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import numpy as np
 from core.runs.run_dir import atomic_write_bytes
 
 if TYPE_CHECKING:
+    from core.experiments.report import CellRecord
     from core.experiments.spec import ExperimentSpec
 
 
@@ -119,4 +122,36 @@ def plot_scores(report: dict[str, Any], labels: list[str], path: Path) -> None:
             axis.grid(axis="x", alpha=0.3)
             axis.set_title(f"{name} · {reward}", fontsize=10)
     figure.suptitle(f"{report['experiment']}: IQM and 95% bootstrap CI over seeds", fontsize=11)
+    _save(figure, path)
+
+
+def plot_value_traces(records: list[CellRecord], labels: list[str], path: Path) -> None:
+    """Per method (panels), per seed (colours): start-state value (solid) and discounted return (dashed) of
+    each training episode over env steps; methods that log neither get a panel saying so."""
+    plt = _pyplot()
+    columns = min(4, max(1, len(labels)))
+    rows = -(-len(labels) // columns)
+    figure, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.2 * rows), dpi=100, squeeze=False)
+    cycle = plt.get_cmap("tab10")
+    for index, label in enumerate(labels):
+        axis = axes[index // columns][index % columns]
+        logged = [r for r in records if r.label == label and r.start_values is not None]
+        for order, record in enumerate(sorted(logged, key=lambda r: (r.reward, r.seed))):
+            style = {"color": cycle(order % 10), "linewidth": 1.0}
+            axis.plot(record.steps, record.start_values, label=f"seed {record.seed}", **style)
+            if record.discounted_returns is not None:
+                axis.plot(record.steps, record.discounted_returns, linestyle="--", **style)
+        if not logged:
+            axis.text(0.5, 0.5, "no start values logged", ha="center", va="center", transform=axis.transAxes)
+            axis.set_xticks([])
+            axis.set_yticks([])
+        else:
+            axis.legend(fontsize=7, loc="best")
+        axis.set_title(label, fontsize=10)
+        axis.set_xlabel("env steps")
+        axis.grid(alpha=0.3)
+    for index in range(len(labels), rows * columns):
+        axes[index // columns][index % columns].axis("off")
+    figure.suptitle("critic's value of the start state (solid) and discounted return earned (dashed)",
+                    fontsize=11)
     _save(figure, path)

@@ -14,6 +14,13 @@ Scores of one finished cell, from its run directory:
 * ``train_length`` — a diagnostic, not a score: the mean length in env steps of the last 500 training
   episodes (from metrics.csv's ``global_step``). On a level where a failed grasp ends the episode, short
   episodes mean the policy closes its hand before it has travelled (docs/results.md).
+* ``best_eval_return`` — a diagnostic: the best greedy return of any evaluation in the run (the periodic ones
+  in metrics.csv and the final one). Beside ``eval_return`` it separates *finding* from *keeping*: a run that
+  reached the goal and lost it has a high best and a low final.
+* ``value_gap`` — a diagnostic: over the last ``VALUE_GAP_EPISODES`` training episodes, the mean of the
+  critic's value of the start state minus the discounted return the episode earned (``charts/start_value``,
+  ``charts/discounted_return``). Persistently positive is overestimation (issue 28); NaN for runs that do
+  not log them (the SB3 peers).
 
 Per (method, reward mode) over seeds: IQM with a 95% stratified-bootstrap CI, mean ± std
 (``core.experiments.statistics``), and each method's probability of improvement over its model-free
@@ -50,16 +57,21 @@ METRICS: dict[str, str] = {
     "eval_return": "Greedy return",
     "first_success": "Steps to first success",
     "train_length": "Episode length",
+    "best_eval_return": "Best greedy return",
+    "value_gap": "Start value − discounted return",
 }
 """Reported scores and their table names."""
 BOOTSTRAPPED = (
-    "auc", "final_perf", "train_success", "success", "eval_return", "first_success", "train_length"
+    "auc", "final_perf", "train_success", "success", "eval_return", "first_success", "train_length",
+    "best_eval_return", "value_gap",
 )
 """Scores with their own bootstrap (``auc_from_minus1`` is an affine map of ``auc``)."""
-DIAGNOSTICS = ("first_success", "train_length")
+DIAGNOSTICS = ("first_success", "train_length", "best_eval_return", "value_gap")
 """Reported with IQM and CI, but neither better when higher nor compared with the baseline."""
 
 MODEL_FREE = ("ddpg", "cacla", "td3", "sac")
+VALUE_GAP_EPISODES = 10
+"""Training episodes at the end of a run over which ``value_gap`` is averaged."""
 CURVE_POINTS = 200
 """Points of the common env-step grid the learning curves are interpolated to."""
 
@@ -79,6 +91,26 @@ class CellRecord:
     successes: np.ndarray
     """1 where the training episode ended in a grasp, else 0 (NaN where metrics.csv has no column)."""
     scores: dict[str, float]
+    start_values: np.ndarray | None = None
+    """The critic's value of each training episode's start state (None where metrics.csv has no column)."""
+    discounted_returns: np.ndarray | None = None
+    """The discounted return each training episode earned (None where metrics.csv has no column)."""
+
+
+def _column(rows: list[dict[str, str]], key: str) -> np.ndarray | None:
+    """A float column of metrics.csv rows (empty cells NaN), or None when the file has no such column."""
+    if not rows or key not in rows[0]:
+        return None
+    return np.asarray([float(row[key]) if row[key] not in ("", None) else math.nan for row in rows])
+
+
+def _value_gap(start_values: np.ndarray | None, discounted: np.ndarray | None) -> float:
+    """Mean of start value − discounted return over the last VALUE_GAP_EPISODES episodes (NaN: unlogged)."""
+    if start_values is None or discounted is None:
+        return math.nan
+    gap = (start_values - discounted)[-VALUE_GAP_EPISODES:]
+    gap = gap[np.isfinite(gap)]
+    return float(gap.mean()) if gap.size else math.nan
 
 
 def find_experiment_dir(directory: Path | str) -> Path:
@@ -102,16 +134,18 @@ def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord |
     if cell_state(run_dir) != "done":
         return None
     summary = read_summary(run_dir) or {}
-    steps: list[float] = []
-    returns: list[float] = []
-    successes: list[float] = []
     with (run_dir / "metrics.csv").open(newline="") as file:
-        for row in csv.DictReader(file):
-            steps.append(float(row["global_step"]))
-            returns.append(float(row["charts/episodic_return"]))
-            successes.append(float(row.get("charts/success") or "nan"))
+        rows = list(csv.DictReader(file))
+    steps = [float(row["global_step"]) for row in rows]
+    returns = [float(row["charts/episodic_return"]) for row in rows]
+    successes = [float(row.get("charts/success") or "nan") for row in rows]
     success = summary.get("success_rate")
     eval_return = summary.get("eval_return")
+    evaluations = _column(rows, "eval/return")
+    periodic = [] if evaluations is None else evaluations[np.isfinite(evaluations)].tolist()
+    every_eval = periodic + ([] if eval_return is None else [float(eval_return)])
+    start_values = _column(rows, "charts/start_value")
+    discounted = _column(rows, "charts/discounted_return")
     hits = [step for step, hit in zip(steps, successes, strict=True) if hit == 1.0]
     first_success = hits[0] if hits else float(summary.get("steps") or (steps[-1] if steps else math.nan))
     return CellRecord(
@@ -133,7 +167,11 @@ def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord |
             "eval_return": math.nan if eval_return is None else float(eval_return),
             "first_success": first_success,
             "train_length": final_performance(np.diff(steps, prepend=0.0).tolist()),
+            "best_eval_return": max(every_eval) if every_eval else math.nan,
+            "value_gap": _value_gap(start_values, discounted),
         },
+        start_values=start_values,
+        discounted_returns=discounted,
     )
 
 
@@ -285,9 +323,10 @@ def learning_curves(
 
 
 def write_report(directory: Path | str, *, reps: int | None = None) -> dict[str, Any]:
-    """Write report.md, learning_curves.png, success_curves.png and scores.png into the experiment folder;
+    """Write report.md, learning_curves.png, success_curves.png, scores.png and value_traces.png into the
+    experiment folder;
     returns the numbers (:func:`build_report`) with ``"files"`` added."""
-    from core.experiments.figures import plot_learning_curves, plot_scores
+    from core.experiments.figures import plot_learning_curves, plot_scores, plot_value_traces
 
     spec, root, records, missing = collect(directory)  # every metrics.csv read once, for numbers and curves
     report = _report_numbers(spec, root, records, missing, reps=reps)
@@ -296,12 +335,14 @@ def write_report(directory: Path | str, *, reps: int | None = None) -> dict[str,
         "learning_curves": root / "learning_curves.png",
         "success_curves": root / "success_curves.png",
         "scores": root / "scores.png",
+        "value_traces": root / "value_traces.png",
     }
     plot_learning_curves(spec, learning_curves(spec, records), files["learning_curves"])
     verb = "grasp" if spec.nico_grasp else "succeed"
     plot_learning_curves(spec, learning_curves(spec, records, series="successes"), files["success_curves"],
                          ylabel=f"share of training episodes that {verb} (smoothed)")
     plot_scores(report, [m.label for m in spec.methods], files["scores"])
+    plot_value_traces(records, [m.label for m in spec.methods], files["value_traces"])
     atomic_write_text(files["report"], render_markdown(spec, report))
     atomic_write_text(root / "report.json", json.dumps(report, indent=2) + "\n")
     report["files"] = {name: str(path) for name, path in files.items()}
@@ -432,6 +473,12 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "episodic return.",
         "- **Steps to first success** (diagnostic, lower is sooner): env step at the end of the first "
         "training episode that succeeded; a run that never did counts as its whole budget.",
+        "- **Best greedy return** (diagnostic): the best greedy evaluation of the run, periodic or final; "
+        "beside the final one it tells a run that found the goal and lost it from one that never found it.",
+        f"- **Start value − discounted return** (diagnostic): over the last {VALUE_GAP_EPISODES} training "
+        "episodes, the critic's value of the start state minus the discounted return the episode earned; "
+        "persistently positive is overestimation (empty for runs that do not log it, the SB3 peers). "
+        "Per seed over training: `value_traces.png`.",
         "- **IQM**: interquartile mean over seeds (25% trimmed mean); CIs: percentile bootstrap over seeds "
         "(rliable, stratified by task; one task per reward mode), fixed seed.",
         "",

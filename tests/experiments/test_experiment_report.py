@@ -169,7 +169,7 @@ def test_report_files_and_json_cli(made_up: Path) -> None:
     entry = data["methods"]["M"]["sparse"]
     assert set(entry) >= {"auc", "final_perf", "success", "seeds"}
     assert set(entry["auc"]) >= {"iqm", "ci", "mean", "std"}
-    for name in ("report.md", "learning_curves.png", "success_curves.png", "scores.png"):
+    for name in ("report.md", "learning_curves.png", "success_curves.png", "scores.png", "value_traces.png"):
         assert (made_up / name).stat().st_size > 0
     markdown = (made_up / "report.md").read_text()
     assert "| **Sparse reward** |" in markdown and "Probability of improvement" in markdown
@@ -196,3 +196,34 @@ def test_learning_curves_share_an_env_step_grid(made_up: Path) -> None:
     # share is 1 where v > 0, else 0.
     shares = learning_curves(spec, records, points=30, series="successes")["sparse"]["M"]
     assert shares["mean"][-1] == pytest.approx(np.mean([float(v > 0) for v in FINAL["M"]]))
+
+
+def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> None:
+    """Best greedy return is the best of the periodic and final evaluations; the value gap is the mean of
+    start value − discounted return over the last 10 training episodes; runs without those columns give
+    none; both are diagnostics, never compared with a baseline."""
+    root = tmp_path / "diag"
+    root.mkdir()
+    spec = {"name": "diag", "rewards": ["sparse"], "seeds": [0, 1], "steps": 100,
+            "methods": [{"label": "M", "algo": "im2c", "ac": "td3"}, {"label": "B", "algo": "td3"}]}
+    (root / "experiment.yaml").write_text(yaml.safe_dump(spec))
+    for seed in (0, 1):
+        write_cell(root, "B", "sparse", seed, [0.0] * 20, 0.5)  # no start-value or eval columns
+        cell = root / "M" / "sparse" / f"seed-{seed}"
+        write_cell(root, "M", "sparse", seed, [0.0] * 20, 0.5)
+        with (cell / "metrics.csv").open("w", newline="") as file:
+            writer = csv.writer(file)
+            writer.writerow(["episode", "global_step", "charts/episodic_return", "charts/success",
+                             "eval/return", "charts/start_value", "charts/discounted_return"])
+            for episode in range(1, 21):
+                found = 90.0 + seed if episode == 10 else ""  # a greedy 90 (seed 1: 91) mid-run, then lost
+                value = 100.0 if episode > 10 else 1.0  # the critic's value climbs in the last 10 episodes
+                writer.writerow([episode, 5 * episode, 0.0, 0, found, value, 40.0 - seed])
+    report = build_report(root)
+    m, b = report["methods"]["M"]["sparse"], report["methods"]["B"]["sparse"]
+    assert m["best_eval_return"]["mean"] == pytest.approx(90.5)  # periodic 90 / 91 beat the final 5.0
+    assert m["eval_return"]["mean"] == pytest.approx(5.0)
+    assert m["value_gap"]["mean"] == pytest.approx(np.mean([100 - 40, 100 - 39]))
+    assert b["best_eval_return"]["mean"] == pytest.approx(5.0)  # only the final evaluation
+    assert b["value_gap"]["n"] == 0 and b["value_gap"]["iqm"] is None
+    assert "value_gap" not in m["prob_improvement"] and "best_eval_return" not in m["prob_improvement"]

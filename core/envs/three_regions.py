@@ -17,6 +17,14 @@ The region is the third of the square the point lands in, by x:
 The extrinsic reward is always 0; ``info["region"]`` names the region of the new position. Episodes end by
 truncation after ``max_steps`` steps; the start is uniform over the square. Registered as
 ``dualsys/ThreeRegions-v0`` (``core/envs/__init__.py``).
+
+It is also study 3's noisy TV (issue 29): a method drawn to the noise spends its steps there, one that
+explores covers the rest. The last step's ``info["episode_diagnostics"]`` measures both for the episode, and
+the trainer writes them into metrics.csv (``core.runs.trainer``):
+
+- ``env/noise_share`` — the share of the episode's steps that ended in the noise region;
+- ``env/coverage_rest`` — the share of the cells of a ``COVERAGE_CELLS`` × ``COVERAGE_CELLS`` grid over the
+  square, among those outside the noise region, that the episode visited (start included).
 """
 
 from __future__ import annotations
@@ -29,6 +37,13 @@ from gymnasium import spaces
 
 REGIONS = ("trivial", "learnable", "noise")
 """Region names, left to right."""
+
+
+COVERAGE_CELLS = 15
+"""Cells per axis of the grid ``env/coverage_rest`` counts (cell side 2/15 ≈ 2.7 steps at speed 0.05)."""
+
+REST_COLUMNS = int(np.sum((np.arange(COVERAGE_CELLS) + 0.5) * 2.0 / COVERAGE_CELLS - 1.0 < 1.0 / 3.0))
+"""Grid columns whose centre lies outside the noise region (x < 1/3): 10 of 15."""
 
 
 def region_of(x: float | np.ndarray) -> np.ndarray:
@@ -50,6 +65,20 @@ class ThreeRegionsEnv(gym.Env):
         self._position = np.zeros(2)
         self._screen = 0.0
         self._steps = 0
+        self._noise_steps = 0
+        self._visited = np.zeros((COVERAGE_CELLS, COVERAGE_CELLS), dtype=bool)
+
+    def _visit(self) -> None:
+        cell = np.minimum(((self._position + 1.0) / 2.0 * COVERAGE_CELLS).astype(int), COVERAGE_CELLS - 1)
+        self._visited[cell[0], cell[1]] = True
+
+    def episode_diagnostics(self) -> dict[str, float]:
+        """``env/noise_share`` and ``env/coverage_rest`` of the episode so far (module docstring)."""
+        rest = self._visited[:REST_COLUMNS]
+        return {
+            "env/noise_share": self._noise_steps / max(1, self._steps),
+            "env/coverage_rest": float(rest.sum()) / rest.size,
+        }
 
     def _observation(self) -> np.ndarray:
         return np.array([*self._position, self._screen], dtype=np.float32)
@@ -58,7 +87,9 @@ class ThreeRegionsEnv(gym.Env):
         super().reset(seed=seed)
         self._position = self.np_random.uniform(-1.0, 1.0, size=2)
         self._screen = 0.0
-        self._steps = 0
+        self._steps = self._noise_steps = 0
+        self._visited[:] = False
+        self._visit()
         return self._observation(), {"region": REGIONS[int(region_of(self._position[0]))]}
 
     def step(self, action: np.ndarray):
@@ -72,5 +103,10 @@ class ThreeRegionsEnv(gym.Env):
         elif region == 2:
             self._screen = float(self.np_random.uniform(-1.0, 1.0))
         self._steps += 1
+        self._noise_steps += int(region == 2)
+        self._visit()
         truncated = self._steps >= self.max_steps
-        return self._observation(), 0.0, False, truncated, {"region": REGIONS[region]}
+        info: dict[str, Any] = {"region": REGIONS[region]}
+        if truncated:
+            info["episode_diagnostics"] = self.episode_diagnostics()
+        return self._observation(), 0.0, False, truncated, info

@@ -22,6 +22,11 @@ Scores of one finished cell, from its run directory:
   ``charts/discounted_return``). Persistently positive is overestimation (issue 28); NaN for runs that do
   not log them (the SB3 peers).
 
+Measures a file lists under ``episode_measures`` (metrics.csv columns an env writes per episode, e.g. the
+noisy TV's ``env/noise_share``) are scores too: per cell, the column's mean over the second half of the
+training episodes (NaN where the column is missing), with IQM, CI and P(X > baseline), where higher is not
+necessarily better (a share of steps at the noise is better lower).
+
 Per (method, reward mode) over seeds: IQM with a 95% stratified-bootstrap CI, mean ± std
 (``core.experiments.statistics``), and each method's probability of improvement over its model-free
 baseline (the file's ``baseline``, else the ddpg/cacla method with the same actor update, else the first
@@ -129,8 +134,20 @@ def find_experiment_dir(directory: Path | str) -> Path:
     raise ExperimentError(f"{root} holds no {EXPERIMENT_FILE} (pass OUT/<experiment>)")
 
 
-def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord | None:
-    """The scores and curve of a finished cell (None if it is not finished)."""
+def _second_half_mean(values: np.ndarray | None) -> float:
+    """Mean of the finite values of the second half of a per-episode column (NaN: none, or no column)."""
+    if values is None:
+        return math.nan
+    half = values[len(values) // 2 :]
+    half = half[np.isfinite(half)]
+    return float(half.mean()) if half.size else math.nan
+
+
+def read_cell(
+    run_dir: Path, label: str, reward: str, seed: int, measures: tuple[str, ...] = ()
+) -> CellRecord | None:
+    """The scores and curve of a finished cell (None if it is not finished); ``measures``: the file's
+    ``episode_measures``, each scored as its second-half mean."""
     if cell_state(run_dir) != "done":
         return None
     summary = read_summary(run_dir) or {}
@@ -169,6 +186,7 @@ def read_cell(run_dir: Path, label: str, reward: str, seed: int) -> CellRecord |
             "train_length": final_performance(np.diff(steps, prepend=0.0).tolist()),
             "best_eval_return": max(every_eval) if every_eval else math.nan,
             "value_gap": _value_gap(start_values, discounted),
+            **{measure: _second_half_mean(_column(rows, measure)) for measure in measures},
         },
         start_values=start_values,
         discounted_returns=discounted,
@@ -184,7 +202,10 @@ def collect(directory: Path | str) -> tuple[ExperimentSpec, Path, list[CellRecor
     for method in spec.methods:
         for reward in spec.rewards:
             for seed in spec.seeds:
-                record = read_cell(cell_dir(root, method.label, reward, seed), method.label, reward, seed)
+                record = read_cell(
+                    cell_dir(root, method.label, reward, seed), method.label, reward, seed,
+                    spec.episode_measures,
+                )
                 if record is None:
                     missing.append(f"{method.label}/{reward}/seed-{seed}")
                 else:
@@ -243,7 +264,7 @@ def _report_numbers(
         for reward in spec.rewards:
             entry: dict[str, Any] = {
                 metric: score_summary(scores(method.label, reward, metric), reps=reps)
-                for metric in BOOTSTRAPPED
+                for metric in (*BOOTSTRAPPED, *spec.episode_measures)
             }
             # AuC from −1 is (AuC + 1) / 2 per cell: its statistics follow without a second bootstrap.
             entry["auc_from_minus1"] = affine_summary(entry["auc"], 0.5, 0.5)
@@ -255,7 +276,7 @@ def _report_numbers(
                     metric: probability_of_improvement(
                         scores(method.label, reward, metric), scores(baseline, reward, metric), reps=reps
                     )
-                    for metric in BOOTSTRAPPED
+                    for metric in (*BOOTSTRAPPED, *spec.episode_measures)
                     if metric not in DIAGNOSTICS
                 }
                 entry["prob_improvement"]["auc_from_minus1"] = entry["prob_improvement"]["auc"]
@@ -417,6 +438,11 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
                 + " |"
             )
             lines.append(f"| {name} mean ± std | " + " | ".join(_mean_cell(c) for c in cells) + " |")
+        for measure in spec.episode_measures:
+            cells = [report["methods"][label][reward][measure] for label in labels]
+            lines.append(f"| `{measure}` (second half) IQM [95% CI] | "
+                         + " | ".join(_iqm_cell(c, False) for c in cells) + " |")
+            lines.append(f"| `{measure}` mean ± std | " + " | ".join(_mean_cell(c) for c in cells) + " |")
         seeds = [str(report["methods"][label][reward]["seeds"]) for label in labels]
         lines.append("| seeds | " + " | ".join(seeds) + " |")
     compared = [
@@ -426,6 +452,7 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         if report["methods"][label][reward].get("baseline") is not None
     ]
     compared_metrics = [(metric, name) for metric, name in METRICS.items() if metric not in DIAGNOSTICS]
+    compared_metrics += [(measure, f"`{measure}`") for measure in spec.episode_measures]
     if compared:
         lines += [
             "",
@@ -479,6 +506,12 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "episodes, the critic's value of the start state minus the discounted return the episode earned; "
         "persistently positive is overestimation (empty for runs that do not log it, the SB3 peers). "
         "Per seed over training: `value_traces.png`.",
+        *(
+            [f"- **{', '.join(f'`{m}`' for m in spec.episode_measures)}**: the env's own per-episode "
+             "measures (metrics.csv columns), per run the mean over the second half of its training "
+             "episodes; P(X > Y) says only which is higher, not which is better."]
+            if spec.episode_measures else []
+        ),
         "- **IQM**: interquartile mean over seeds (25% trimmed mean); CIs: percentile bootstrap over seeds "
         "(rliable, stratified by task; one task per reward mode), fixed seed.",
         "",

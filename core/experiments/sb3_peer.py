@@ -87,7 +87,7 @@ from core.experiments.sb3_settings import (
 )
 from core.experiments.spec import ExperimentError, ExperimentSpec, MethodSpec
 from core.modelfree.agent import generator_state, restore_generator
-from core.runs.bookkeeping import RunBookkeeping, mean_dicts
+from core.runs.bookkeeping import RunBookkeeping, env_diagnostics, mean_dicts
 from core.runs.run_dir import RunDirectoryError, atomic_torch_save, atomic_write_bytes, atomic_write_text
 
 _SB3_FORMAT = "dualsys-sb3/1"
@@ -521,6 +521,7 @@ class _SB3Run(RunBookkeeping):
                             info, recorder.terminated, recorder.truncated, run.config.env.success
                         ),
                         "toppled": bool(info.get("toppled", False)),
+                        "measured": env_diagnostics(info),
                     }
                     self.episode_return, self.length = 0.0, 0
                     self.at_boundary = True
@@ -577,6 +578,7 @@ class _SB3Run(RunBookkeeping):
                     finished["return"], finished["length"], finished["success"], finished["toppled"]
                 )
                 record.update(mean_dicts(self.losses))
+                record.update(finished["measured"])
                 self.losses = []
                 if run._evaluation_due():
                     run.eval_env = run.eval_env or make_env(run.config, evaluation=True).env

@@ -15,6 +15,8 @@ An experiment file is YAML::
     eval_episodes: 25               # episodes per greedy evaluation (run.eval_episodes)
     baseline: DDPG                  # optional: label every method is compared with
     smoothing: {dense: 250, sparse: 375}   # optional: learning-curve windows in episodes (Fig. 8)
+    episode_measures: [env/noise_share]    # optional: metrics.csv columns the report summarises per cell
+                                    # (their mean over the second half of the training episodes)
     overrides: {agent.batch_size: 64}      # optional: config key=value for every method
     methods:
       - label: DDPG                 # folder and legend name: [A-Za-z0-9+._-]
@@ -89,6 +91,7 @@ TOP_KEYS: tuple[str, ...] = (
     "eval_episodes",
     "baseline",
     "smoothing",
+    "episode_measures",
     "overrides",
     "methods",
 )
@@ -138,6 +141,7 @@ class ExperimentSpec:
     smoothing: Mapping[str, int] = field(default_factory=lambda: dict(DEFAULT_SMOOTHING))
     overrides: Mapping[str, Any] = field(default_factory=dict)
     description: str = ""
+    episode_measures: tuple[str, ...] = ()
 
     @property
     def nico_grasp(self) -> bool:
@@ -174,6 +178,8 @@ class ExperimentSpec:
         if self.baseline is not None:
             out["baseline"] = self.baseline
         out["smoothing"] = dict(self.smoothing)
+        if self.episode_measures:
+            out["episode_measures"] = list(self.episode_measures)
         if self.overrides:
             out["overrides"] = dict(self.overrides)
         out["methods"] = [method.to_dict() for method in self.methods]
@@ -276,6 +282,9 @@ def _parse(data: Mapping[str, Any]) -> ExperimentSpec:
         if baseline not in {method.label for method in methods}:
             raise ExperimentError(f"bad value for baseline: {baseline!r} is not a method label")
     description = _string(data.get("description", ""), "description")
+    measures = data.get("episode_measures") or []
+    if not isinstance(measures, list) or not all(isinstance(m, str) and m for m in measures):
+        raise ExperimentError("bad value for episode_measures: expected a list of metrics.csv column names")
     return ExperimentSpec(
         name=name,
         methods=methods,
@@ -292,6 +301,7 @@ def _parse(data: Mapping[str, Any]) -> ExperimentSpec:
         smoothing=smoothing,
         overrides=overrides,
         description=description,
+        episode_measures=tuple(measures),
     )
 
 

@@ -60,6 +60,13 @@ RESUME_CHECKED_SECTIONS: tuple[str, ...] = ("net", "env", "agent", "dual")
 EpisodeCallback = Callable[[dict[str, Any]], None]
 
 
+def env_diagnostics(info: dict[str, Any]) -> dict[str, float]:
+    """The env's own measures of the episode that just ended: ``info["episode_diagnostics"]`` on its last
+    step, a dict of floats that goes into the episode's record as it is (e.g. ``dualsys/ThreeRegions-v0``'s
+    ``env/noise_share``); empty when the env gives none."""
+    return {str(key): float(value) for key, value in (info.get("episode_diagnostics") or {}).items()}
+
+
 class StopFlag:
     """should_stop() or Ctrl-C; the SIGINT handler is installed only in the main thread."""
 

@@ -7,6 +7,9 @@ Per training episode: reset the env, ``agent.begin_episode``; per step ``agent.a
 ``env.step``, ``agent.observe``, ``agent.update_after_step``; at the end ``agent.update_after_episode`` and
 ``agent.episode_diagnostics``. The episode record (CleanRL-style keys, see ``RECORD_KEYS``) goes to
 metrics.csv and to ``on_episode``. Losses are the mean over the episode's updates (blank/NaN when none).
+An env may measure its own episode: a dict of floats in ``info["episode_diagnostics"]`` on an episode's
+last step goes into that episode's record as it is (``core.runs.bookkeeping.env_diagnostics``;
+``dualsys/ThreeRegions-v0``'s ``env/noise_share`` and ``env/coverage_rest``).
 The run's bookkeeping, shared with the Stable-Baselines3 peer (run-directory set-up and resume check,
 counters, episode records, evaluation/checkpoint/budget schedules, summary.json), is
 :class:`core.runs.bookkeeping.RunBookkeeping`'s.
@@ -53,7 +56,7 @@ from core.envs.gym_env import AdaptedEnv, episode_success
 from core.modelfree.agent import Agent, Transition, generator_state, restore_generator
 from core.runs.bookkeeping import RECORD_KEYS as RECORD_KEYS
 from core.runs.bookkeeping import EpisodeCallback as EpisodeCallback
-from core.runs.bookkeeping import RunBookkeeping, mean_dicts
+from core.runs.bookkeeping import RunBookkeeping, env_diagnostics, mean_dicts
 from core.runs.methods import make_agent, resolve_algo
 from core.runs.run_dir import atomic_torch_save
 
@@ -218,6 +221,7 @@ class _Trainer(RunBookkeeping):
         episode_return, length, success, toppled = 0.0, 0, False, False
         losses: list[dict[str, float]] = []
         step_diagnostics: list[dict[str, float]] = []
+        measured: dict[str, float] = {}
         while True:
             if self.stop_flag():
                 return None
@@ -238,6 +242,7 @@ class _Trainer(RunBookkeeping):
             if terminated or truncated:
                 success = episode_success(info, terminated, truncated, self.config.env.success)
                 toppled = bool(info.get("toppled", False))
+                measured = env_diagnostics(info)
                 break
         episode_losses = agent.update_after_episode()
         if episode_losses:
@@ -246,6 +251,7 @@ class _Trainer(RunBookkeeping):
         record.update(mean_dicts(losses))
         record.update(mean_dicts(step_diagnostics))
         record.update(agent.episode_diagnostics())
+        record.update(measured)
         # Overestimation in sight: the critic's value of the start state beside the discounted return earned.
         record["charts/start_value"] = start_value
         record["charts/discounted_return"] = discounted

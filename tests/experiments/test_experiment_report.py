@@ -13,6 +13,8 @@ import yaml
 from typer.testing import CliRunner
 
 from core.experiments import build_report
+from core.experiments.report import render_markdown
+from core.experiments.spec import read_experiment
 from core.experiments.statistics import _improvement, _trimmed_mean, probability_of_improvement, score_summary
 from dualsys_cli.main import app
 
@@ -205,6 +207,7 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
     root = tmp_path / "diag"
     root.mkdir()
     spec = {"name": "diag", "rewards": ["sparse"], "seeds": [0, 1], "steps": 100,
+            "episode_measures": ["env/noise_share"],
             "methods": [{"label": "M", "algo": "im2c", "ac": "td3"}, {"label": "B", "algo": "td3"}]}
     (root / "experiment.yaml").write_text(yaml.safe_dump(spec))
     for seed in (0, 1):
@@ -214,11 +217,13 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
         with (cell / "metrics.csv").open("w", newline="") as file:
             writer = csv.writer(file)
             writer.writerow(["episode", "global_step", "charts/episodic_return", "charts/success",
-                             "eval/return", "charts/start_value", "charts/discounted_return"])
+                             "eval/return", "charts/start_value", "charts/discounted_return",
+                             "env/noise_share"])
             for episode in range(1, 21):
                 found = 90.0 + seed if episode == 10 else ""  # a greedy 90 (seed 1: 91) mid-run, then lost
                 value = 100.0 if episode > 10 else 1.0  # the critic's value climbs in the last 10 episodes
-                writer.writerow([episode, 5 * episode, 0.0, 0, found, value, 40.0 - seed])
+                noise = 1.0 if episode <= 10 else 0.1 * seed  # the second half: 0.0 and 0.1
+                writer.writerow([episode, 5 * episode, 0.0, 0, found, value, 40.0 - seed, noise])
     report = build_report(root)
     m, b = report["methods"]["M"]["sparse"], report["methods"]["B"]["sparse"]
     assert m["best_eval_return"]["mean"] == pytest.approx(90.5)  # periodic 90 / 91 beat the final 5.0
@@ -227,3 +232,9 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
     assert b["best_eval_return"]["mean"] == pytest.approx(5.0)  # only the final evaluation
     assert b["value_gap"]["n"] == 0 and b["value_gap"]["iqm"] is None
     assert "value_gap" not in m["prob_improvement"] and "best_eval_return" not in m["prob_improvement"]
+    # An episode measure: the mean of its second half per run, compared with the baseline where B has it
+    assert m["env/noise_share"]["mean"] == pytest.approx(0.05) and m["env/noise_share"]["n"] == 2
+    assert b["env/noise_share"]["n"] == 0
+    assert "env/noise_share" in m["prob_improvement"]
+    markdown = render_markdown(read_experiment(root / "experiment.yaml"), report)
+    assert "| `env/noise_share` (second half) IQM [95% CI] |" in markdown

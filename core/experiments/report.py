@@ -230,6 +230,26 @@ def baselines(spec: ExperimentSpec, records: list[CellRecord]) -> dict[str, str 
     return out
 
 
+DUAL_SYSTEM = ("im2c", "i2a", "cmc", "la-imagination", "mve")
+"""Methods whose intrinsic-motivation peer (RND on the same learner) the report also compares them with."""
+PEER_ALGO = "rnd"
+
+
+def peers(spec: ExperimentSpec, records: list[CellRecord]) -> dict[str, str | None]:
+    """Each dual-system method's intrinsic-motivation peer: the file's ``rnd`` method on the same learner
+    (``ac``), None where there is none (issue 29: P(dual > RND) beside P(dual > learner alone))."""
+
+    def learner(method: Any) -> str:
+        return method.ac or next((r.ac for r in records if r.label == method.label), "ddpg")
+
+    rnd = [m for m in spec.methods if m.algo == PEER_ALGO]
+    out: dict[str, str | None] = {}
+    for method in spec.methods:
+        same = [m for m in rnd if learner(m) == learner(method)]
+        out[method.label] = same[0].label if method.algo in DUAL_SYSTEM and same else None
+    return out
+
+
 def build_report(directory: Path | str, *, reps: int | None = None) -> dict[str, Any]:
     """The report's numbers (see the module docstring) as one JSON-ready dict::
 
@@ -254,6 +274,7 @@ def _report_numbers(
 
     reps = reps or BOOTSTRAP_REPS
     baseline_of = baselines(spec, records)
+    peer_of = peers(spec, records)
 
     def scores(label: str, reward: str, metric: str) -> list[float]:
         return [r.scores[metric] for r in records if r.label == label and r.reward == reward]
@@ -280,6 +301,16 @@ def _report_numbers(
                     if metric not in DIAGNOSTICS
                 }
                 entry["prob_improvement"]["auc_from_minus1"] = entry["prob_improvement"]["auc"]
+            peer = peer_of[method.label]
+            entry["peer"] = peer
+            if peer is not None:
+                entry["prob_over_peer"] = {
+                    metric: probability_of_improvement(
+                        scores(method.label, reward, metric), scores(peer, reward, metric), reps=reps
+                    )
+                    for metric in (*BOOTSTRAPPED, *spec.episode_measures)
+                    if metric not in DIAGNOSTICS
+                }
             per_reward[reward] = entry
         methods[method.label] = per_reward
     total = len(spec.methods) * len(spec.rewards) * len(spec.seeds)
@@ -469,6 +500,30 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
             lines.append(
                 f"| {label} | {reward} | {entry['baseline']} | "
                 + " | ".join(_p_cell(entry["prob_improvement"].get(metric)) for metric, _ in compared_metrics)
+                + " |"
+            )
+    against_peer = [
+        (label, reward)
+        for label in labels
+        for reward in spec.rewards
+        if report["methods"][label][reward].get("peer") is not None
+    ]
+    if against_peer:
+        peer_metrics = [(metric, name) for metric, name in compared_metrics if metric != "auc_from_minus1"]
+        lines += [
+            "",
+            "## Probability of improvement over the intrinsic-motivation peer",
+            "",
+            "P(X > Y) of each dual-system method against RND on the same learner, as above.",
+            "",
+            "| method | reward | peer | " + " | ".join(name for _, name in peer_metrics) + " |",
+            "|---|---|---|" + "---|" * len(peer_metrics),
+        ]
+        for label, reward in against_peer:
+            entry = report["methods"][label][reward]
+            lines.append(
+                f"| {label} | {reward} | {entry['peer']} | "
+                + " | ".join(_p_cell(entry["prob_over_peer"].get(metric)) for metric, _ in peer_metrics)
                 + " |"
             )
     windows = ", ".join(f"{spec.smoothing.get(r, 250)} episodes ({r})" for r in spec.rewards)

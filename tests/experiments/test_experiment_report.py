@@ -238,3 +238,27 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
     assert "env/noise_share" in m["prob_improvement"]
     markdown = render_markdown(read_experiment(root / "experiment.yaml"), report)
     assert "| `env/noise_share` (second half) IQM [95% CI] |" in markdown
+
+
+def test_dual_methods_are_also_compared_with_rnd_on_the_same_learner(tmp_path: Path) -> None:
+    """P(dual > RND) beside P(dual > learner alone) (issue 29): the peer is the rnd method on the same ac."""
+    root = tmp_path / "peer"
+    root.mkdir()
+    spec = {"name": "peer", "rewards": ["sparse"], "seeds": [0, 1, 2], "steps": 100,
+            "methods": [{"label": "B", "algo": "ddpg"}, {"label": "M", "algo": "im2c", "ac": "ddpg"},
+                        {"label": "R", "algo": "rnd", "ac": "ddpg"},
+                        {"label": "S", "algo": "im2c", "ac": "sac"}]}
+    (root / "experiment.yaml").write_text(yaml.safe_dump(spec))
+    finals = {"B": [0.0, 0.1, 0.2], "M": [0.5, 0.6, 0.7], "R": [0.55, 0.3, 0.9], "S": [0.0, 0.0, 0.0]}
+    for label, values in finals.items():
+        for seed, value in enumerate(values):
+            write_cell(root, label, "sparse", seed, [value] * 20, 0.5)
+    report = build_report(root)
+    m = report["methods"]["M"]["sparse"]
+    assert m["baseline"] == "B" and m["peer"] == "R"
+    assert m["prob_improvement"]["final_perf"]["p"] == pytest.approx(1.0)
+    # M's 0.5, 0.6, 0.7 against R's 0.55, 0.3, 0.9: 1 + 2 + 2 wins of 9 pairs
+    assert m["prob_over_peer"]["final_perf"]["p"] == pytest.approx(5 / 9)
+    assert report["methods"]["S"]["sparse"]["peer"] is None  # no RND on SAC in this file
+    assert report["methods"]["R"]["sparse"]["peer"] is None
+    assert "prob_over_peer" not in report["methods"]["B"]["sparse"]

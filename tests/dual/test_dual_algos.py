@@ -212,7 +212,7 @@ def test_imagination_update_is_algorithm_3_lines_34_to_37(ac: str) -> None:
     for p in ref.critic.parameters():
         p.requires_grad_(False)
     loss = cfg.lambda_rec * (ref.decoder(phi) - obs).pow(2).mean() + cfg.lambda_q * td_loss(
-        ref.critic(phi, pixel.action), y_pixel)
+        ref.critic(phi, pixel.action), y_pixel, ref.twin_loss_weight)
     ref.critic_optimizer.zero_grad(set_to_none=True)
     loss.backward()
     ref.critic_optimizer.step()
@@ -223,7 +223,7 @@ def test_imagination_update_is_algorithm_3_lines_34_to_37(ac: str) -> None:
     y_all = torch.cat([y_pixel, y_latent])
     a_all = torch.cat([pixel.action, latent.action])
     ref.critic_optimizer.zero_grad(set_to_none=True)
-    (cfg.lambda_q * td_loss(ref.critic(phi_all, a_all), y_all)).backward()
+    (cfg.lambda_q * td_loss(ref.critic(phi_all, a_all), y_all, ref.twin_loss_weight)).backward()
     ref.critic_optimizer.step()
     # Line 36: the learner's policy step on both minibatches' latents; line 37: targets (TD3: delayed).
     with torch.no_grad():

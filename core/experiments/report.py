@@ -279,6 +279,17 @@ def _report_numbers(
     def scores(label: str, reward: str, metric: str) -> list[float]:
         return [r.scores[metric] for r in records if r.label == label and r.reward == reward]
 
+    compared = [m for m in (*BOOTSTRAPPED, *spec.episode_measures) if m not in DIAGNOSTICS]
+
+    def against(label: str, other: str, reward: str) -> dict[str, Any]:
+        """P(label > other) on every compared score."""
+        return {
+            metric: probability_of_improvement(
+                scores(label, reward, metric), scores(other, reward, metric), reps=reps
+            )
+            for metric in compared
+        }
+
     methods: dict[str, dict[str, Any]] = {}
     for method in spec.methods:
         per_reward: dict[str, Any] = {}
@@ -290,27 +301,12 @@ def _report_numbers(
             # AuC from −1 is (AuC + 1) / 2 per cell: its statistics follow without a second bootstrap.
             entry["auc_from_minus1"] = affine_summary(entry["auc"], 0.5, 0.5)
             entry["seeds"] = sum(1 for r in records if r.label == method.label and r.reward == reward)
-            baseline = baseline_of[method.label]
-            entry["baseline"] = baseline
-            if baseline is not None:
-                entry["prob_improvement"] = {
-                    metric: probability_of_improvement(
-                        scores(method.label, reward, metric), scores(baseline, reward, metric), reps=reps
-                    )
-                    for metric in (*BOOTSTRAPPED, *spec.episode_measures)
-                    if metric not in DIAGNOSTICS
-                }
+            entry["baseline"], entry["peer"] = baseline_of[method.label], peer_of[method.label]
+            if entry["baseline"] is not None:
+                entry["prob_improvement"] = against(method.label, entry["baseline"], reward)
                 entry["prob_improvement"]["auc_from_minus1"] = entry["prob_improvement"]["auc"]
-            peer = peer_of[method.label]
-            entry["peer"] = peer
-            if peer is not None:
-                entry["prob_over_peer"] = {
-                    metric: probability_of_improvement(
-                        scores(method.label, reward, metric), scores(peer, reward, metric), reps=reps
-                    )
-                    for metric in (*BOOTSTRAPPED, *spec.episode_measures)
-                    if metric not in DIAGNOSTICS
-                }
+            if entry["peer"] is not None:
+                entry["prob_over_peer"] = against(method.label, entry["peer"], reward)
             per_reward[reward] = entry
         methods[method.label] = per_reward
     total = len(spec.methods) * len(spec.rewards) * len(spec.seeds)
@@ -429,6 +425,40 @@ def _p_cell(entry: dict[str, Any] | None) -> str:
     return f"{entry['p']:.2f} [{low:.2f}, {high:.2f}]"
 
 
+def _comparison_table(
+    spec: ExperimentSpec,
+    report: dict[str, Any],
+    other: str,
+    probabilities: str,
+    metrics: list[tuple[str, str]],
+    title: str,
+    explanation: str,
+) -> list[str]:
+    """Markdown lines of one P(X > Y) table: each method with an ``other`` (its baseline or its peer) against
+    it, ``probabilities`` the entry's key of the P values; no lines when no method has one."""
+    rows = [
+        (label, reward)
+        for label in (m.label for m in spec.methods)
+        for reward in spec.rewards
+        if report["methods"][label][reward].get(other) is not None
+    ]
+    if not rows:
+        return []
+    lines = [
+        "", f"## {title}", "", explanation, "",
+        f"| method | reward | {other} | " + " | ".join(name for _, name in metrics) + " |",
+        "|---|---|---|" + "---|" * len(metrics),
+    ]
+    for label, reward in rows:
+        entry = report["methods"][label][reward]
+        lines.append(
+            f"| {label} | {reward} | {entry[other]} | "
+            + " | ".join(_p_cell(entry[probabilities].get(metric)) for metric, _ in metrics)
+            + " |"
+        )
+    return lines
+
+
 def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
     """report.md: a Table 1-style table, probabilities of improvement, figures and definitions."""
     labels = [m.label for m in spec.methods]
@@ -476,56 +506,20 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
             lines.append(f"| `{measure}` mean ± std | " + " | ".join(_mean_cell(c) for c in cells) + " |")
         seeds = [str(report["methods"][label][reward]["seeds"]) for label in labels]
         lines.append("| seeds | " + " | ".join(seeds) + " |")
-    compared = [
-        (label, reward)
-        for label in labels
-        for reward in spec.rewards
-        if report["methods"][label][reward].get("baseline") is not None
-    ]
     compared_metrics = [(metric, name) for metric, name in METRICS.items() if metric not in DIAGNOSTICS]
     compared_metrics += [(measure, f"`{measure}`") for measure in spec.episode_measures]
-    if compared:
-        lines += [
-            "",
-            "## Probability of improvement over the model-free baseline",
-            "",
-            "P(X > Y): the chance that a run of the method scores higher than a run of its baseline "
-            "(Mann-Whitney U / (n·m)), with its 95% bootstrap CI; 0.5 means no difference.",
-            "",
-            "| method | reward | baseline | " + " | ".join(name for _, name in compared_metrics) + " |",
-            "|---|---|---|" + "---|" * len(compared_metrics),
-        ]
-        for label, reward in compared:
-            entry = report["methods"][label][reward]
-            lines.append(
-                f"| {label} | {reward} | {entry['baseline']} | "
-                + " | ".join(_p_cell(entry["prob_improvement"].get(metric)) for metric, _ in compared_metrics)
-                + " |"
-            )
-    against_peer = [
-        (label, reward)
-        for label in labels
-        for reward in spec.rewards
-        if report["methods"][label][reward].get("peer") is not None
-    ]
-    if against_peer:
-        peer_metrics = [(metric, name) for metric, name in compared_metrics if metric != "auc_from_minus1"]
-        lines += [
-            "",
-            "## Probability of improvement over the intrinsic-motivation peer",
-            "",
-            "P(X > Y) of each dual-system method against RND on the same learner, as above.",
-            "",
-            "| method | reward | peer | " + " | ".join(name for _, name in peer_metrics) + " |",
-            "|---|---|---|" + "---|" * len(peer_metrics),
-        ]
-        for label, reward in against_peer:
-            entry = report["methods"][label][reward]
-            lines.append(
-                f"| {label} | {reward} | {entry['peer']} | "
-                + " | ".join(_p_cell(entry["prob_over_peer"].get(metric)) for metric, _ in peer_metrics)
-                + " |"
-            )
+    lines += _comparison_table(
+        spec, report, "baseline", "prob_improvement", compared_metrics,
+        "Probability of improvement over the model-free baseline",
+        "P(X > Y): the chance that a run of the method scores higher than a run of its baseline "
+        "(Mann-Whitney U / (n·m)), with its 95% bootstrap CI; 0.5 means no difference.",
+    )
+    lines += _comparison_table(
+        spec, report, "peer", "prob_over_peer",
+        [(metric, name) for metric, name in compared_metrics if metric != "auc_from_minus1"],
+        "Probability of improvement over the intrinsic-motivation peer",
+        "P(X > Y) of each dual-system method against RND on the same learner, as above.",
+    )
     windows = ", ".join(f"{spec.smoothing.get(r, 250)} episodes ({r})" for r in spec.rewards)
     lines += [
         "",

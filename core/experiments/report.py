@@ -19,8 +19,8 @@ Scores of one finished cell, from its run directory:
   reached the goal and lost it has a high best and a low final.
 * ``value_gap`` — a diagnostic: over the last ``VALUE_GAP_EPISODES`` training episodes, the mean of the
   critic's value of the start state minus the discounted return the episode earned (``charts/start_value``,
-  ``charts/discounted_return``). Persistently positive is overestimation (issue 28); NaN for runs that do
-  not log them (the SB3 peers).
+  ``charts/discounted_return``, logged by our trainer and by the SB3 peers alike). Persistently positive is
+  overestimation (issue 28); NaN for runs that do not log them (archives older than the columns).
 
 Measures a file lists under ``episode_measures`` (metrics.csv columns an env writes per episode, e.g. the
 noisy TV's ``env/noise_share``) are scores too: per cell, the column's mean over the second half of the
@@ -553,7 +553,7 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "beside the final one it tells a run that found the goal and lost it from one that never found it.",
         f"- **Start value − discounted return** (diagnostic): over the last {VALUE_GAP_EPISODES} training "
         "episodes, the critic's value of the start state minus the discounted return the episode earned; "
-        "persistently positive is overestimation (empty for runs that do not log it, the SB3 peers). "
+        "persistently positive is overestimation (empty for runs that do not log it). "
         "Per seed over training: `value_traces.png`.",
         *(
             [f"- **{', '.join(f'`{m}`' for m in spec.episode_measures)}**: the env's own per-episode "

@@ -60,6 +60,7 @@ import dataclasses
 import functools
 import io
 import json
+import math
 import random
 import time
 from collections.abc import Callable, Mapping
@@ -202,6 +203,17 @@ def _restore_sde_state(model: Any, state: Mapping[str, torch.Tensor]) -> None:
     dist = getattr(getattr(model, "actor", None), "action_dist", None)
     for name, tensor in state.items():
         setattr(dist, name, tensor.clone())
+
+
+@torch.no_grad()
+def _start_value(model: Any) -> float:
+    """The critic's value of the deterministic action at the observation the next step acts on (twins: the
+    smaller), as our learners' ``value_of``: ``charts/start_value`` when taken at an episode's first step.
+    No random draw: the training that follows is unchanged."""
+    obs, _ = model.policy.obs_to_tensor(model._last_obs)
+    action = model.policy._predict(obs, deterministic=True)
+    values = torch.cat(model.critic(obs, action), dim=1)
+    return float(values.min(dim=1).values[0])
 
 
 def _rollout_ends(train_freq: Any, steps: int, episodes: int) -> bool:
@@ -453,6 +465,9 @@ class _SB3Run(RunBookkeeping):
                 super().__init__(verbose=0)
                 self.episode_return = 0.0
                 self.length = 0
+                self.start_value = math.nan
+                self.discounted = 0.0
+                self.discount = 1.0
                 self.finished: dict[str, Any] | None = None
                 self.losses: list[dict[str, float]] = []
                 self.n_updates = int(model._n_updates)
@@ -506,10 +521,16 @@ class _SB3Run(RunBookkeeping):
                     model.gradient_steps = self.rollout_steps
 
             def _on_step(self) -> bool:
+                if self.length == 0:  # an episode's first step: weights as after the last one's update
+                    self.start_value = _start_value(model)
+                    self.discounted, self.discount = 0.0, 1.0
                 run.global_step += 1
                 self.length += 1
                 self.rollout_steps += 1
-                self.episode_return += float(self.locals["rewards"][0])
+                reward = float(self.locals["rewards"][0])
+                self.episode_return += reward
+                self.discounted += self.discount * reward
+                self.discount *= float(model.gamma)
                 self.at_boundary = False
                 keep_going = True
                 if bool(self.locals["dones"][0]):
@@ -522,6 +543,8 @@ class _SB3Run(RunBookkeeping):
                         ),
                         "toppled": bool(info.get("toppled", False)),
                         "measured": env_diagnostics(info),
+                        "start_value": self.start_value,
+                        "discounted_return": self.discounted,
                     }
                     self.episode_return, self.length = 0.0, 0
                     self.at_boundary = True
@@ -579,6 +602,8 @@ class _SB3Run(RunBookkeeping):
                 )
                 record.update(mean_dicts(self.losses))
                 record.update(finished["measured"])
+                record["charts/start_value"] = finished["start_value"]
+                record["charts/discounted_return"] = finished["discounted_return"]
                 self.losses = []
                 if run._evaluation_due():
                     run.eval_env = run.eval_env or make_env(run.config, evaluation=True).env

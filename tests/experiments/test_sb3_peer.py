@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import sys
 
 import pytest
@@ -191,13 +192,22 @@ def test_same_seed_same_episodes_and_stop_resume_continues_them(tmp_path):
     resumed = returns(tmp_path / "c")
     assert [e for e, _, _ in resumed] == list(range(1, len(resumed) + 1))  # no duplicate, none missing
     assert resumed == reference  # the resumed run is the uninterrupted one
+    values = [(r["charts/start_value"], r["charts/discounted_return"]) for r in rows(tmp_path / "c")]
+    assert values == [(r["charts/start_value"], r["charts/discounted_return"]) for r in rows(tmp_path / "a")]
     assert (tmp_path / "c" / "command.txt").read_text().count("test") == 2
 
 
 def test_td3_runs_and_resume_refuses_another_algorithm(tmp_path):
-    config = load_config("default", [*TINY, "run.steps=30"])
+    config = load_config("default", [*TINY, "run.steps=30", "agent.gamma=1.0"])
     summary = train_sb3(config, tmp_path / "td3", algo="td3", command="test")
     assert summary["algo"] == "sb3-td3" and summary["steps"] >= 30
+    # The overestimation pair, as our trainer logs it: with γ = 1 the discounted return is the return; the
+    # start value is the critic's, finite, and moves as the critic learns.
+    data = rows(tmp_path / "td3")
+    for row in data:
+        assert float(row["charts/discounted_return"]) == pytest.approx(float(row["charts/episodic_return"]))
+    start_values = [float(row["charts/start_value"]) for row in data]
+    assert all(math.isfinite(v) for v in start_values) and len(set(start_values)) > 1
     with pytest.raises(ValueError, match="sb3-td3"):
         train_sb3(config, tmp_path / "td3", algo="sac", resume=True)
 

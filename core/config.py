@@ -263,9 +263,10 @@ class DualConfig:
     """σ: window of recent prediction errors per node (Eq. 8)."""
     lp_window: int = 20
     """W: history of window means used by LP (Eq. 9)."""
-    intrinsic: Literal["paper", "repaired"] = "repaired"
+    intrinsic: Literal["paper", "paper_centred", "repaired"] = "repaired"
     """r_int (Alg. 2 line 22): paper (also the released code) — −c·LP of the region the transition started
-    in; repaired — +c·held-out progress / the latent's spread, of the region the action led into."""
+    in; paper_centred — the same minus its mean over the live regions (a control: its state dependence
+    alone); repaired — +c·held-out progress / the latent's spread, of the region the action led into."""
     intrinsic_scale: float = 0.1
     """Scale c of r_int (paper: 1, the ``paper`` profile). Default 0.1: at 1 with the paper's signal the
     summed r_int of an episode outweighs the ±1 terminal reward and the agent lingers (docs/dual-system)."""

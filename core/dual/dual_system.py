@@ -11,7 +11,9 @@ Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_err
 of the real transitions), ``no_change_error`` (the same error of the predictor φ̂′ = φ_t, r̂ = 0: the
 latent scale the model error is read against), ``mb_decisions`` / ``mf_decisions`` (counts),
 ``horizon`` (mean H of the model-based decisions, NaN when none), ``itm_nodes``, ``imagined`` (latent
-transitions added), ``intrinsic_reward`` (mean r_int), ``plan_loss_drop`` (mean L_plan decrease over
+transitions added), ``intrinsic_reward`` (mean r_int), ``region_rint_mean`` / ``region_rint_std`` (the
+r_int signal of the live regions at the episode's end: its mean, a cost or bonus per step, and its spread,
+its dependence on the region), ``plan_loss_drop`` (mean L_plan decrease over
 the K MPC steps), ``plan_action_shift`` (mean max-abs difference between the executed MPC action and the
 actor's μ(φ_t)), and with ``dual.refit_every`` set, ``refit_error`` (mean Eq. 8 error of the refit batches
 before the step).
@@ -178,6 +180,7 @@ class DualSystem:
             "dual/itm_nodes": float(self.world.num_nodes),
             "dual/imagined": float(c.imagined),
             "dual/intrinsic_reward": mean_or_nan(c.intrinsic),
+            **self.region_intrinsic_diagnostics(),
             "dual/plan_loss_drop": mean_or_nan(c.plan_drops),
             "dual/plan_action_shift": mean_or_nan(c.action_shifts),
         }
@@ -185,6 +188,13 @@ class DualSystem:
             out["dual/refit_error"] = mean_or_nan(c.refit_errors)
         self.counters = EpisodeCounters()
         return out
+
+    def region_intrinsic_diagnostics(self) -> dict[str, float]:
+        """At the episode's end, the r_int signal of every live region (before any centring): its mean over
+        the regions (``dual/region_rint_mean``, what acts like a cost or bonus per step) and its standard
+        deviation (``dual/region_rint_std``, how much it depends on where the agent is)."""
+        values = self.world.region_intrinsic_rewards(self.world.alive_regions())
+        return {"dual/region_rint_mean": float(values.mean()), "dual/region_rint_std": float(values.std())}
 
     def state_dict(self) -> dict[str, Any]:
         return {

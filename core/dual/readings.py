@@ -16,8 +16,9 @@ constants are `HeldOut`.
 - reliability (`Reliability`): paper — LP ≥ 0 of squared errors, not normalised, a new node unreliable;
   released — LP ≥ 0 of error norms, divided by the max mean, the oldest mean 0; repaired — the held-out
   verdict, error norms.
-- intrinsic (`Intrinsic`): paper (= the released code) — −c·LP of the source region; repaired — +c·held-out
-  progress of the destination region.
+- intrinsic (`Intrinsic`): paper (= the released code) — −c·LP of the source region; paper_centred — the
+  same minus its mean over the live regions (a control); repaired — +c·held-out progress of the destination
+  region.
 - planner (`Planner`): paper — (R* − Σ r̂)², plain gradient, only the executed action clipped; released —
   ½ Σ (1 − r̂)², otherwise paper; repaired — (R* − Σ r̂)², normalised steps, every plan action clipped.
 - imagination (`Imagination`): paper (= the released code) — the act-time rollout in B_latent, all kept, no
@@ -116,7 +117,7 @@ class Intrinsic:
     spread; ``region`` whose signal rewards a transition: the one it started in, or the one the action led
     into."""
 
-    signal: Literal["neg_lp", "progress"]
+    signal: Literal["neg_lp", "neg_lp_centred", "progress"]
     region: Literal["source", "destination"]
 
 
@@ -165,8 +166,11 @@ RELIABILITY: dict[str, Reliability] = {
 }
 INTRINSIC: dict[str, Intrinsic] = {
     "paper": Intrinsic(signal="neg_lp", region="source"),
+    "paper_centred": Intrinsic(signal="neg_lp_centred", region="source"),
     "repaired": Intrinsic(signal="progress", region="destination"),
 }
+"""``paper_centred`` is no reading of the text or the code: the paper's r_int with its mean over the live
+regions removed, a control that keeps only its dependence on the region (issue 29, "what explores")."""
 PLANNER: dict[str, Planner] = {
     "paper": Planner(objective="sum", optimiser="sgd", clip="executed"),
     "released": Planner(objective="per_step", optimiser="sgd", clip="executed"),

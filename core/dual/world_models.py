@@ -28,8 +28,9 @@ Options (docs/dual-system.md, "Mechanisms"; each off in the ``paper`` profile):
   for N states.
 - ``reliability = repaired``: every ``HeldOut.every``-th transition of a node is held out (not trained on) and
   the node's reliability is judged on it (`core.dual.reliability`); arbitration and Alg. 1's depth use it.
-- ``intrinsic``: r_int = −c·LP (Eq. 9, the region the transition started in, Alg. 2 line 22) or +c·held-out
-  progress of the region the action led into (`intrinsic_reward`).
+- ``intrinsic``: r_int = −c·LP (Eq. 9, the region the transition started in, Alg. 2 line 22), the same with
+  the mean over the live regions removed (``paper_centred``: its dependence on the region alone, a control),
+  or +c·held-out progress of the region the action led into (`intrinsic_reward`).
 
 Each is read once from `core.dual.readings.resolve` (``self.readings``).
 """
@@ -285,19 +286,34 @@ class LocalWorldModels:
         """`intrinsic_reward` of many transitions: from regions ``nodes [k]`` to ``next_phi [k, latent]``."""
         intrinsic = self.readings.intrinsic
         regions = nodes if intrinsic.region == "source" else self.nearest_many(next_phi)
-        if intrinsic.signal == "neg_lp":
+        rewards = self.region_intrinsic_rewards(regions)
+        if intrinsic.signal == "neg_lp_centred":
+            rewards = rewards - self.region_intrinsic_rewards(self.alive_regions()).mean()
+        return rewards
+
+    def region_intrinsic_rewards(self, regions: np.ndarray) -> np.ndarray:
+        """The r_int signal of each region in ``regions`` now, before any centring: −c·LP (paper), or
+        +c·held-out progress / s (repaired)."""
+        if self.readings.intrinsic.signal in ("neg_lp", "neg_lp_centred"):
             return self.lp.intrinsic_reward(regions)
         assert self.heldout is not None
         unit = self.unit.scale if self.readings.reliability.error_norm == "l2" else self.unit.scale**2
         return self.config.intrinsic_scale * self.heldout.progress_of(regions) / unit
+
+    def alive_regions(self) -> np.ndarray:
+        """The live regions' ids (node 0 alone without a map, or before the map's first state)."""
+        if self.itm is None or not self.itm.initialised:
+            return np.zeros(1, dtype=np.int64)
+        return self.itm.alive_ids()
 
     def intrinsic_reward(self, node: int, next_phi: torch.Tensor) -> float:
         """r_int of a transition from region ``node`` to latent ``next_phi`` (Alg. 2 line 22, or the repair).
 
         `Intrinsic.region`: source → the LP of ``node``; destination → the LP of the region ``next_phi``
         falls in (the consequence of the action). `Intrinsic.signal`: neg_lp → −c·LP (Eq. 9, released
-        normalisation); progress → +c·(held-out progress) / s, s the latent's RMS spread (`unit`; squared
-        with squared Eq. 8 errors).
+        normalisation); neg_lp_centred → −c·LP minus its mean over the live regions (the step-cost part of
+        the literal r_int removed, its state dependence kept); progress → +c·(held-out progress) / s, s the
+        latent's RMS spread (`unit`; squared with squared Eq. 8 errors).
         """
         return float(self.intrinsic_rewards(np.array([node], dtype=np.int64), next_phi.reshape(1, -1))[0])
 

@@ -22,7 +22,7 @@ TINY = [
 ]
 
 DUAL_KEYS = ("dual/model_error", "dual/mb_decisions", "dual/mf_decisions", "dual/horizon", "dual/itm_nodes",
-             "dual/imagined", "dual/intrinsic_reward")
+             "dual/imagined", "dual/intrinsic_reward", "dual/region_rint_mean", "dual/region_rint_std")
 
 
 @pytest.mark.parametrize("ac", ["ddpg", "cacla", "td3", "sac"])

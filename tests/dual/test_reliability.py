@@ -100,3 +100,26 @@ def test_repaired_intrinsic_reward_is_the_progress_of_the_region_the_action_led_
     source = Intrinsic(signal="progress", region="source")  # no reading: repaired signal, paper's region
     world.readings = dataclasses.replace(world.readings, intrinsic=source)
     assert world.intrinsic_reward(here, torch.tensor([3.0, 0.0])) == pytest.approx(0.0)
+
+
+def test_centred_paper_intrinsic_reward_is_the_paper_signal_minus_its_mean_over_live_regions() -> None:
+    """``dual.intrinsic = paper_centred`` (issue 29's control): r_int(n) = −c·LP(n) − mean_m(−c·LP(m)) over
+    the live regions m, so its mean over them is 0 and only its dependence on the region is left."""
+    overrides = ["dual.e_max=0.5", "dual.intrinsic=paper_centred", "dual.reliability=released",
+                 "dual.intrinsic_scale=1.0", "dual.lp_sigma=2", "dual.lp_window=2"]
+    dual = load_config("default", overrides).dual
+    world = LocalWorldModels(dual, 2, 1, generator=torch.Generator().manual_seed(0))
+    world.scale.warmup = 1
+    g = torch.Generator().manual_seed(3)
+    for point in ([0.0, 0.0], [3.0, 0.0], [0.0, 3.0]):
+        world.observe_state(torch.tensor(point))
+    regions = world.alive_regions()
+    for step in range(40):  # errors that shrink in one region and grow in another give LPs of both signs
+        node = int(regions[step % len(regions)])
+        target = torch.rand(2, generator=g) * (0.1 if node == regions[0] else 1.0 + step / 10)
+        world.learn_transition(node, torch.rand(2, generator=g), torch.rand(1, generator=g), 0.0, target)
+    paper = world.lp.intrinsic_reward(regions)
+    assert np.ptp(paper) > 0  # the regions differ
+    centred = np.array([world.intrinsic_reward(int(n), torch.zeros(2)) for n in regions])
+    np.testing.assert_allclose(centred, paper - paper.mean(), atol=1e-12)
+    assert abs(centred.mean()) < 1e-12

@@ -12,16 +12,27 @@
 from __future__ import annotations
 
 import io
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from core.runs.run_dir import atomic_write_bytes
 
 if TYPE_CHECKING:
-    from core.experiments.report import CellRecord
     from core.experiments.spec import ExperimentSpec
+
+
+class ValueTrace(Protocol):
+    """What :func:`plot_value_traces` reads of a finished cell (``core.experiments.report.CellRecord``)."""
+
+    label: str
+    reward: str
+    seed: int
+    steps: np.ndarray
+    start_values: np.ndarray | None
+    discounted_returns: np.ndarray | None
 
 
 def _pyplot() -> Any:
@@ -125,7 +136,7 @@ def plot_scores(report: dict[str, Any], labels: list[str], path: Path) -> None:
     _save(figure, path)
 
 
-def plot_value_traces(records: list[CellRecord], labels: list[str], path: Path) -> None:
+def plot_value_traces(records: Sequence[ValueTrace], labels: list[str], path: Path) -> None:
     """Per method (panels), per seed (colours): start-state value (solid) and discounted return (dashed) of
     each training episode over env steps; methods that log neither get a panel saying so."""
     plt = _pyplot()

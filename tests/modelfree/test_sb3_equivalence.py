@@ -128,6 +128,6 @@ def test_update_moves_every_network_as_stable_baselines3_does(ac, monkeypatch):
         assert _gap(pairs) < TOLERANCE, f"{ac}: networks part after update {update + 1}"
     if ac == "sac":
         assert abs(float(reference.log_ent_coef.detach()) - float(ours.log_alpha.detach())) < 1e-6
-    now = [layer.weight for layer in _linears(ours.actor)]
+    now = [layer.weight.detach() for layer in _linears(ours.actor)]
     moved = max(float((w - w0).abs().max()) for w, w0 in zip(now, initial_actor, strict=True))
     assert moved > 1e-3  # the updates did move the actor: the comparison is not between two idle copies

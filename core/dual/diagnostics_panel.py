@@ -22,6 +22,8 @@ PANEL_KEYS: tuple[tuple[str, str], ...] = (
     ("dual/itm_nodes", "ITM nodes"),
     ("dual/imagined", "imagined transitions"),
     ("dual/intrinsic_reward", "intrinsic reward"),
+    ("dual/region_rint_mean", "r_int over regions: mean"),
+    ("dual/region_rint_std", "r_int over regions: spread"),
 )
 """Which columns the panel draws, in order, with their legend names."""
 

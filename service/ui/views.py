@@ -248,7 +248,11 @@ DIAGNOSTIC_LAYOUT: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("planning horizon", "steps", ("dual/horizon",)),
     ("ITM size", "nodes", ("dual/itm_nodes",)),
     ("imagined transitions", "per episode", ("dual/imagined",)),
-    ("intrinsic reward", "reward", ("dual/intrinsic_reward",)),
+    (
+        "intrinsic reward: per step, and over the regions (mean, spread)",
+        "reward",
+        ("dual/intrinsic_reward", "dual/region_rint_mean", "dual/region_rint_std"),
+    ),
     (
         "critic's start-state value vs discounted return earned",
         "discounted return",

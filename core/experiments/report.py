@@ -49,7 +49,7 @@ from typing import Any, Literal
 import numpy as np
 
 from core.experiments.cells import EXPERIMENT_FILE, cell_dir, cell_state, read_summary
-from core.experiments.spec import ExperimentError, ExperimentSpec, read_experiment
+from core.experiments.spec import ExperimentError, ExperimentSpec, MethodSpec, read_experiment
 from core.runs.metrics import area_under_curve, final_performance, smooth
 from core.runs.run_dir import atomic_write_text
 
@@ -109,13 +109,17 @@ def _column(rows: list[dict[str, str]], key: str) -> np.ndarray | None:
     return np.asarray([float(row[key]) if row[key] not in ("", None) else math.nan for row in rows])
 
 
+def _finite_mean(values: np.ndarray) -> float:
+    """Mean of the finite entries (NaN when there are none)."""
+    finite = values[np.isfinite(values)]
+    return float(finite.mean()) if finite.size else math.nan
+
+
 def _value_gap(start_values: np.ndarray | None, discounted: np.ndarray | None) -> float:
     """Mean of start value − discounted return over the last VALUE_GAP_EPISODES episodes (NaN: unlogged)."""
     if start_values is None or discounted is None:
         return math.nan
-    gap = (start_values - discounted)[-VALUE_GAP_EPISODES:]
-    gap = gap[np.isfinite(gap)]
-    return float(gap.mean()) if gap.size else math.nan
+    return _finite_mean((start_values - discounted)[-VALUE_GAP_EPISODES:])
 
 
 def find_experiment_dir(directory: Path | str) -> Path:
@@ -138,9 +142,7 @@ def _second_half_mean(values: np.ndarray | None) -> float:
     """Mean of the finite values of the second half of a per-episode column (NaN: none, or no column)."""
     if values is None:
         return math.nan
-    half = values[len(values) // 2 :]
-    half = half[np.isfinite(half)]
-    return float(half.mean()) if half.size else math.nan
+    return _finite_mean(values[len(values) // 2 :])
 
 
 def read_cell(
@@ -213,6 +215,11 @@ def collect(directory: Path | str) -> tuple[ExperimentSpec, Path, list[CellRecor
     return spec, root, records, missing
 
 
+def _learner_of(method: MethodSpec, records: list[CellRecord]) -> str:
+    """The learner (``ac``) a method runs: the file's, else what its finished cells recorded, else ddpg."""
+    return method.ac or next((r.ac for r in records if r.label == method.label), "ddpg")
+
+
 def baselines(spec: ExperimentSpec, records: list[CellRecord]) -> dict[str, str | None]:
     """Each method's model-free baseline label (None for the baselines themselves)."""
     model_free = [m for m in spec.methods if m.algo in MODEL_FREE]
@@ -224,7 +231,7 @@ def baselines(spec: ExperimentSpec, records: list[CellRecord]) -> dict[str, str 
         if method.algo in MODEL_FREE or not model_free:
             out[method.label] = None
             continue
-        ac = method.ac or next((r.ac for r in records if r.label == method.label), "ddpg")
+        ac = _learner_of(method, records)
         same_rule = [m for m in model_free if m.algo == ac]
         out[method.label] = (same_rule or model_free)[0].label
     return out
@@ -238,14 +245,10 @@ PEER_ALGO = "rnd"
 def peers(spec: ExperimentSpec, records: list[CellRecord]) -> dict[str, str | None]:
     """Each dual-system method's intrinsic-motivation peer: the file's ``rnd`` method on the same learner
     (``ac``), None where there is none (issue 29: P(dual > RND) beside P(dual > learner alone))."""
-
-    def learner(method: Any) -> str:
-        return method.ac or next((r.ac for r in records if r.label == method.label), "ddpg")
-
     rnd = [m for m in spec.methods if m.algo == PEER_ALGO]
     out: dict[str, str | None] = {}
     for method in spec.methods:
-        same = [m for m in rnd if learner(m) == learner(method)]
+        same = [m for m in rnd if _learner_of(m, records) == _learner_of(method, records)]
         out[method.label] = same[0].label if method.algo in DUAL_SYSTEM and same else None
     return out
 

@@ -21,6 +21,12 @@ Scores of one finished cell, from its run directory:
   critic's value of the start state minus the discounted return the episode earned (``charts/start_value``,
   ``charts/discounted_return``, logged by our trainer and by the SB3 peers alike). Persistently positive is
   overestimation (issue 28); NaN for runs that do not log them (archives older than the columns).
+  The training episodes act with exploration (noise, SAC's sampling, the dual system's planner), so part of
+  this gap is the exploration's cost, not the critic's error; and a dual agent's critic learns r_ext + r_int.
+* ``greedy_value_gap`` — a diagnostic: the same at the greedy evaluations, over the last
+  ``VALUE_GAP_EVALS`` of them (``eval/start_value`` − ``eval/discounted_return``): the critic's value of the
+  evaluation starts at the greedy action against what the greedy policy earned from them. For a deterministic
+  learner this is exactly the return Q(s₀, μ(s₀)) estimates (SAC's soft Q values its stochastic policy).
 
 Measures a file lists under ``episode_measures`` (metrics.csv columns an env writes per episode, e.g. the
 noisy TV's ``env/noise_share``) are scores too: per cell, the column's mean over the second half of the
@@ -64,19 +70,22 @@ METRICS: dict[str, str] = {
     "train_length": "Episode length",
     "best_eval_return": "Best greedy return",
     "value_gap": "Start value − discounted return",
+    "greedy_value_gap": "Greedy start value − discounted return",
 }
 """Reported scores and their table names."""
 BOOTSTRAPPED = (
     "auc", "final_perf", "train_success", "success", "eval_return", "first_success", "train_length",
-    "best_eval_return", "value_gap",
+    "best_eval_return", "value_gap", "greedy_value_gap",
 )
 """Scores with their own bootstrap (``auc_from_minus1`` is an affine map of ``auc``)."""
-DIAGNOSTICS = ("first_success", "train_length", "best_eval_return", "value_gap")
+DIAGNOSTICS = ("first_success", "train_length", "best_eval_return", "value_gap", "greedy_value_gap")
 """Reported with IQM and CI, but neither better when higher nor compared with the baseline."""
 
 MODEL_FREE = ("ddpg", "cacla", "td3", "sac")
 VALUE_GAP_EPISODES = 10
 """Training episodes at the end of a run over which ``value_gap`` is averaged."""
+VALUE_GAP_EVALS = 3
+"""Greedy evaluations at the end of a run over which ``greedy_value_gap`` is averaged."""
 CURVE_POINTS = 200
 """Points of the common env-step grid the learning curves are interpolated to."""
 
@@ -115,11 +124,12 @@ def _finite_mean(values: np.ndarray) -> float:
     return float(finite.mean()) if finite.size else math.nan
 
 
-def _value_gap(start_values: np.ndarray | None, discounted: np.ndarray | None) -> float:
-    """Mean of start value − discounted return over the last VALUE_GAP_EPISODES episodes (NaN: unlogged)."""
+def _value_gap(start_values: np.ndarray | None, discounted: np.ndarray | None, last: int) -> float:
+    """Mean of start value − discounted return over the ``last`` rows that hold both (NaN: unlogged)."""
     if start_values is None or discounted is None:
         return math.nan
-    return _finite_mean((start_values - discounted)[-VALUE_GAP_EPISODES:])
+    gaps = start_values - discounted
+    return _finite_mean(gaps[np.isfinite(gaps)][-last:])
 
 
 def find_experiment_dir(directory: Path | str) -> Path:
@@ -187,7 +197,9 @@ def read_cell(
             "first_success": first_success,
             "train_length": final_performance(np.diff(steps, prepend=0.0).tolist()),
             "best_eval_return": max(every_eval) if every_eval else math.nan,
-            "value_gap": _value_gap(start_values, discounted),
+            "value_gap": _value_gap(start_values, discounted, VALUE_GAP_EPISODES),
+            "greedy_value_gap": _value_gap(_column(rows, "eval/start_value"),
+                                           _column(rows, "eval/discounted_return"), VALUE_GAP_EVALS),
             **{measure: _second_half_mean(_column(rows, measure)) for measure in measures},
         },
         start_values=start_values,

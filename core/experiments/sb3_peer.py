@@ -142,6 +142,10 @@ class GreedyPolicy:
         action, _ = self.model.predict(obs, deterministic=not explore)
         return np.asarray(action, dtype=np.float32), {}
 
+    def start_value(self, obs: np.ndarray) -> float:
+        """The critic's value of the deterministic action at ``obs`` (twins: the smaller), as our agents'."""
+        return _critic_value(self.model, obs)
+
 
 # -- SB3 state that a checkpoint adds to the model file ------------------------------------------
 
@@ -205,12 +209,17 @@ def _restore_sde_state(model: Any, state: Mapping[str, torch.Tensor]) -> None:
         setattr(dist, name, tensor.clone())
 
 
-@torch.no_grad()
 def _start_value(model: Any) -> float:
-    """The critic's value of the deterministic action at the observation the next step acts on (twins: the
-    smaller), as our learners' ``value_of``: ``charts/start_value`` when taken at an episode's first step.
-    No random draw: the training that follows is unchanged."""
-    obs, _ = model.policy.obs_to_tensor(model._last_obs)
+    """The critic's value of the deterministic action at the observation the next step acts on:
+    ``charts/start_value`` when taken at an episode's first step."""
+    return _critic_value(model, model._last_obs)
+
+
+@torch.no_grad()
+def _critic_value(model: Any, observation: np.ndarray) -> float:
+    """The critic's value of the deterministic action at ``observation`` (twins: the smaller), as our
+    learners' ``value_of``. No random draw: the training that follows is unchanged."""
+    obs, _ = model.policy.obs_to_tensor(observation)
     action = model.policy._predict(obs, deterministic=True)
     values = torch.cat(model.critic(obs, action), dim=1)
     return float(values.min(dim=1).values[0])
@@ -391,6 +400,7 @@ class _SB3Run(RunBookkeeping):
             eval_env,
             self.config.run.eval_episodes,
             success_rule=self.config.env.success,
+            gamma=float(model.gamma),
         )
         if self._record_evaluation(result):
             atomic_write_bytes(self.dir.checkpoints / "best.zip", _model_bytes(model))

@@ -70,17 +70,34 @@ def make_env(config: Config, *, evaluation: bool = False) -> AdaptedEnv:
 
 
 def evaluate(
-    agent: Agent, env: Any, episodes: int, seed: int = EVAL_SEED, success_rule: str = "info"
+    agent: Agent,
+    env: Any,
+    episodes: int,
+    seed: int = EVAL_SEED,
+    success_rule: str = "info",
+    gamma: float | None = None,
 ) -> dict[str, float]:
-    """Greedy episodes (no noise): success rate (``env.success``'s rule), mean episodic return and length."""
-    successes, returns, lengths = [], [], []
+    """Greedy episodes (no noise): success rate (``env.success``'s rule), mean episodic return and length.
+
+    With ``gamma``, also the overestimation pair of the policy the critic evaluates: the mean over the
+    episodes of the critic's value of the start state at the greedy action (``agent.start_value``, where the
+    agent has one) and of the discounted return Σ_t γ^t r_t the greedy episode earned. For a deterministic
+    learner Q(s₀, μ(s₀)) estimates exactly that return; the training episodes' pair
+    (``charts/start_value``, ``charts/discounted_return``) also holds the exploration's effect on the return.
+    Neither draws a random number, so training is unchanged.
+    """
+    successes, returns, lengths, start_values, discounted_returns = [], [], [], [], []
     for k in range(episodes):
         obs, _ = env.reset(seed=seed + k)
-        total, length, success = 0.0, 0, False
+        if gamma is not None and hasattr(agent, "start_value"):
+            start_values.append(agent.start_value(obs))
+        total, discounted, discount, length, success = 0.0, 0.0, 1.0, 0, False
         while True:
             action, _ = agent.act(obs, explore=False)
             obs, reward, terminated, truncated, info = env.step(action)
             total += reward
+            discounted += discount * float(reward)
+            discount *= gamma if gamma is not None else 1.0
             length += 1
             if terminated or truncated:
                 success = episode_success(info, terminated, truncated, success_rule)
@@ -88,11 +105,17 @@ def evaluate(
         successes.append(success)
         returns.append(total)
         lengths.append(length)
-    return {
+        discounted_returns.append(discounted)
+    result = {
         "eval/success_rate": float(np.mean(successes)),
         "eval/return": float(np.mean(returns)),
         "eval/length": float(np.mean(lengths)),
     }
+    if gamma is not None:
+        result["eval/discounted_return"] = float(np.mean(discounted_returns))
+        if start_values:
+            result["eval/start_value"] = float(np.mean(start_values))
+    return result
 
 
 def _env_rng_state(env: Any) -> dict[str, Any]:
@@ -259,7 +282,8 @@ class _Trainer(RunBookkeeping):
 
     def _evaluate(self, agent: Agent, eval_env: Any, wall_s: float) -> dict[str, float]:
         cfg = self.config
-        result = evaluate(agent, eval_env, cfg.run.eval_episodes, success_rule=cfg.env.success)
+        result = evaluate(agent, eval_env, cfg.run.eval_episodes, success_rule=cfg.env.success,
+                          gamma=cfg.agent.gamma)
         if self._record_evaluation(result):
             self._save_best(agent, wall_s, result)
         return result

@@ -202,8 +202,9 @@ def test_learning_curves_share_an_env_step_grid(made_up: Path) -> None:
 
 def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> None:
     """Best greedy return is the best of the periodic and final evaluations; the value gap is the mean of
-    start value − discounted return over the last 10 training episodes; runs without those columns give
-    none; both are diagnostics, never compared with a baseline."""
+    start value − discounted return over the last 10 training episodes (the greedy one: over the last 3
+    greedy evaluations); runs without those columns give none; all are diagnostics, never compared with a
+    baseline."""
     root = tmp_path / "diag"
     root.mkdir()
     spec = {"name": "diag", "rewards": ["sparse"], "seeds": [0, 1], "steps": 100,
@@ -218,12 +219,17 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
             writer = csv.writer(file)
             writer.writerow(["episode", "global_step", "charts/episodic_return", "charts/success",
                              "eval/return", "charts/start_value", "charts/discounted_return",
-                             "env/noise_share"])
+                             "env/noise_share", "eval/start_value", "eval/discounted_return"])
             for episode in range(1, 21):
                 found = 90.0 + seed if episode == 10 else ""  # a greedy 90 (seed 1: 91) mid-run, then lost
                 value = 100.0 if episode > 10 else 1.0  # the critic's value climbs in the last 10 episodes
                 noise = 1.0 if episode <= 10 else 0.1 * seed  # the second half: 0.0 and 0.1
-                writer.writerow([episode, 5 * episode, 0.0, 0, found, value, 40.0 - seed, noise])
+                # greedy evaluations every 4th episode; the last three (12, 16, 20) overvalue by 13, 14, 15
+                evaluated = episode % 4 == 0
+                greedy_value = 50.0 + episode // 4 if evaluated else ""
+                greedy_earned = 40.0 if evaluated else ""
+                writer.writerow([episode, 5 * episode, 0.0, 0, found, value, 40.0 - seed, noise,
+                                 greedy_value, greedy_earned])
     report = build_report(root)
     m, b = report["methods"]["M"]["sparse"], report["methods"]["B"]["sparse"]
     assert m["best_eval_return"]["mean"] == pytest.approx(90.5)  # periodic 90 / 91 beat the final 5.0
@@ -231,6 +237,8 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
     assert m["value_gap"]["mean"] == pytest.approx(np.mean([100 - 40, 100 - 39]))
     assert b["best_eval_return"]["mean"] == pytest.approx(5.0)  # only the final evaluation
     assert b["value_gap"]["n"] == 0 and b["value_gap"]["iqm"] is None
+    assert m["greedy_value_gap"]["mean"] == pytest.approx(np.mean([13, 14, 15]))  # the last 3 evaluations
+    assert b["greedy_value_gap"]["n"] == 0 and "greedy_value_gap" not in m["prob_improvement"]
     assert "value_gap" not in m["prob_improvement"] and "best_eval_return" not in m["prob_improvement"]
     # An episode measure: the mean of its second half per run, compared with the baseline where B has it
     assert m["env/noise_share"]["mean"] == pytest.approx(0.05) and m["env/noise_share"]["n"] == 2

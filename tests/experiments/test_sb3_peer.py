@@ -198,7 +198,7 @@ def test_same_seed_same_episodes_and_stop_resume_continues_them(tmp_path):
 
 
 def test_td3_runs_and_resume_refuses_another_algorithm(tmp_path):
-    config = load_config("default", [*TINY, "run.steps=30", "agent.gamma=1.0"])
+    config = load_config("default", [*TINY, "run.steps=30", "agent.gamma=1.0", "run.eval_every=2"])
     summary = train_sb3(config, tmp_path / "td3", algo="td3", command="test")
     assert summary["algo"] == "sb3-td3" and summary["steps"] >= 30
     # The overestimation pair, as our trainer logs it: with γ = 1 the discounted return is the return; the
@@ -208,6 +208,13 @@ def test_td3_runs_and_resume_refuses_another_algorithm(tmp_path):
         assert float(row["charts/discounted_return"]) == pytest.approx(float(row["charts/episodic_return"]))
     start_values = [float(row["charts/start_value"]) for row in data]
     assert all(math.isfinite(v) for v in start_values) and len(set(start_values)) > 1
+    # ... and at the greedy evaluations: the critic's value of the evaluation starts beside what the greedy
+    # episodes earned (γ = 1: their return).
+    evaluations = [row for row in data if row["eval/return"]]
+    assert evaluations
+    for row in evaluations:
+        assert float(row["eval/discounted_return"]) == pytest.approx(float(row["eval/return"]))
+        assert math.isfinite(float(row["eval/start_value"]))
     with pytest.raises(ValueError, match="sb3-td3"):
         train_sb3(config, tmp_path / "td3", algo="sac", resume=True)
 

@@ -12,8 +12,8 @@ import pytest
 from typer.testing import CliRunner
 
 from core.config import load_config
-from core.runs.methods import ALGOS
-from core.runs.trainer import train
+from core.runs.methods import ALGOS, make_agent
+from core.runs.trainer import EVAL_SEED, evaluate, make_env, train
 from dualsys_cli.main import app
 from tests.utils.toy_envs import REFUSED, RecordingPendulum
 
@@ -136,3 +136,37 @@ def test_a_vector_policy_exports_to_onnx_and_is_evaluated_on_its_env(tmp_path, a
         assert result["trials"] == 2 and len(result["per_trial"]) == 2
         assert all(episode["steps"] == 200 for episode in result["per_trial"])  # Pendulum's own time limit
         assert result["mean_return"] < 0
+
+
+@pytest.mark.parametrize("algo", ["td3", "im2c"])
+def test_greedy_evaluation_logs_the_critics_start_value_beside_the_discounted_return(algo):
+    """eval/start_value is the mean over the evaluation episodes of the critic's value of each start state at
+    the greedy action; eval/discounted_return the mean of Σ_t γ^t r_t the greedy episode earned; without γ
+    neither is logged; the greedy episodes themselves are unchanged."""
+    gamma = 0.9
+    config = load_config("default", [*TINY_VECTOR, "env.id=Pendulum-v1", f"run.algo={algo}", "agent.ac=td3",
+                                     f"agent.gamma={gamma}"])
+    adapted = make_env(config, evaluation=True)
+    env = adapted.env
+    agent = make_agent(config, adapted.spec, np.random.default_rng(0))
+    result = evaluate(agent, env, episodes=2, gamma=gamma)
+    values, discounted, returns = [], [], []
+    for k in range(2):
+        obs, _ = env.reset(seed=EVAL_SEED + k)
+        values.append(agent.start_value(obs))
+        rewards = []
+        while True:
+            action, _ = agent.act(obs, explore=False)
+            obs, reward, terminated, truncated, _ = env.step(action)
+            rewards.append(float(reward))
+            if terminated or truncated:
+                break
+        discounted.append(sum(gamma**t * r for t, r in enumerate(rewards)))
+        returns.append(sum(rewards))
+    assert result["eval/start_value"] == pytest.approx(np.mean(values))
+    assert result["eval/discounted_return"] == pytest.approx(np.mean(discounted))
+    assert result["eval/return"] == pytest.approx(np.mean(returns))
+    assert len(set(values)) == 2  # one value per start state, not one for all
+    plain = evaluate(agent, env, episodes=2)
+    assert "eval/start_value" not in plain and "eval/discounted_return" not in plain
+    assert plain["eval/return"] == result["eval/return"]

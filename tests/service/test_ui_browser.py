@@ -179,10 +179,11 @@ def test_script_in_a_tag_or_spec_renders_as_text(
     )
     browser.find_element("id", "token").send_keys(service.token)
     form.find_element("css selector", "button[type=submit]").click()
+    # The page reloads after the submit: read the chips' texts in one script run, so a reload between finding
+    # an element and reading it cannot leave a stale reference.
     wait_for(
-        lambda: (
-            browser.find_elements("css selector", "#v1 .chip.tag .v")
-            and any(e.text == payload for e in browser.find_elements("css selector", "#v1 .chip.tag .v"))
+        lambda: payload in browser.execute_script(
+            "return Array.from(document.querySelectorAll('#v1 .chip.tag .v')).map(e => e.textContent)"
         ),
         timeout=30,
         what="the reloaded page with the tag",

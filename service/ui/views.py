@@ -256,7 +256,7 @@ DIAGNOSTIC_LAYOUT: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     (
         "critic's start-state value vs discounted return earned",
         "discounted return",
-        ("charts/start_value", "charts/discounted_return"),
+        ("charts/start_value", "charts/discounted_return", "eval/start_value", "eval/discounted_return"),
     ),
 )
 """The job page's diagnostics panels: (title, y-axis unit, metric keys drawn together)."""
@@ -276,7 +276,9 @@ def diagnostic_groups() -> list[dict[str, Any]]:
         for title, unit, keys in DIAGNOSTIC_LAYOUT
     ]
     labels.update({"charts/start_value": "critic's value of the start state",
-                   "charts/discounted_return": "discounted return earned"})
+                   "charts/discounted_return": "discounted return earned",
+                   "eval/start_value": "greedy: critic's value of the start",
+                   "eval/discounted_return": "greedy: discounted return earned"})
     placed = {key for _, _, keys in DIAGNOSTIC_LAYOUT for key in keys}
     groups += [
         {"title": label, "unit": "", "series": [[key, label]]}

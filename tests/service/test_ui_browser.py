@@ -242,9 +242,11 @@ def test_train_job_page_draws_greedy_success_and_dual_system_diagnostics(
         assert len(evaluations) >= 2
         dots = browser.find_elements("css selector", "#curve svg .dots.succ circle")
         assert len(dots) == len(evaluations)  # one greedy-success point per evaluation
-        keys = [_attr(browser, "#diagnostics", "data-points")] + [
-            e.get_attribute("data-keys") for e in browser.find_elements("css selector", "#diagnostics .panel")
-        ]
+        keys = browser.execute_script(  # one script run (see below)
+            "return [document.querySelector('#diagnostics').dataset.points].concat("
+            "Array.from(document.querySelectorAll('#diagnostics .panel'),"
+            " function (e) { return e.dataset.keys; }));"
+        )
         assert keys[0] == "10"
         for wanted in (
             "dual/model_error",
@@ -253,10 +255,18 @@ def test_train_job_page_draws_greedy_success_and_dual_system_diagnostics(
             "dual/itm_nodes",
         ):
             assert wanted in keys, f"no panel for {wanted}: {keys}"
-        decisions = browser.find_element(
-            "css selector", '#diagnostics .panel[data-keys^="dual/mb_decisions"]'
+        # counted in one script run: the page may redraw between a find and a read
+        drawn = browser.execute_script(
+            "function count(keys, selector) {"
+            "  const p = document.querySelector('#diagnostics .panel[data-keys^=\"' + keys + '\"]');"
+            "  return p ? p.querySelectorAll(selector).length : -1; }"
+            "return [count('dual/mb_decisions', 'path.line'), count('charts/start_value', 'path.line.d0'),"
+            "  count('charts/start_value', '.dots.d2 circle'),"
+            "  count('charts/start_value', '.dots.d3 circle')];"
         )
-        assert len(decisions.find_elements("css selector", "path.line")) == 2  # model-based and model-free
+        # model-based and model-free decisions; the training episodes' value pair as lines, the greedy
+        # evaluations' pair (critic's start value, discounted return earned) as one dot per evaluation
+        assert drawn == [2, 1, len(evaluations), len(evaluations)]
         assert "greedy evaluation at episode 10" in _text(browser, "#job-success")
         page("train-job")
     assert console_errors(browser) == []

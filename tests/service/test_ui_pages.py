@@ -161,7 +161,9 @@ def test_diagnostics_panels_cover_every_key_of_the_learning_curve_picture() -> N
     from core.dual.diagnostics_panel import PANEL_KEYS
 
     drawn = [key for group in diagnostic_groups() for key, _ in group["series"]]
-    overestimation = ["charts/discounted_return", "charts/start_value"]  # the job page's extra panel
+    # the job page's extra panel: the training episodes' pair and the greedy evaluations'
+    overestimation = ["charts/discounted_return", "charts/start_value", "eval/discounted_return",
+                      "eval/start_value"]
     assert sorted(drawn) == sorted([*(key for key, _ in PANEL_KEYS), *overestimation])
     titles = [group["title"] for group in diagnostic_groups()]
     for wanted in ("model error", "model-based vs model-free decisions", "planning horizon", "ITM size"):

@@ -7,6 +7,8 @@
   const SVG = "http://www.w3.org/2000/svg";
   const MAX_POINTS = 1200; // per drawn series; longer ones are averaged into this many buckets
   const COLOURS = 10; // series classes c0 … c9 (dashboard.css)
+  const OVERESTIMATION = ["charts/start_value", "charts/discounted_return", "eval/start_value",
+    "eval/discounted_return"];
 
   function num(value) {
     return typeof value === "number" && isFinite(value) ? value : null;
@@ -221,9 +223,9 @@
     }
     const n = rec.episode.length;
     Object.keys(d).forEach(function (key) {
-      // the dual-system diagnostics and the overestimation pair (the critic's start value, the return earned)
-      const diagnostic = key.indexOf("dual/") === 0 || key === "charts/start_value" ||
-        key === "charts/discounted_return";
+      // the dual-system diagnostics and the overestimation pairs (the critic's start value, the return
+      // earned), of the training episodes and of the greedy evaluations (eval/…: only on evaluation records)
+      const diagnostic = key.indexOf("dual/") === 0 || OVERESTIMATION.indexOf(key) >= 0;
       if (diagnostic && !rec.dual[key]) rec.dual[key] = [];
     });
     Object.keys(rec.dual).forEach(function (key) {

@@ -88,6 +88,10 @@
     const width = Math.max(260, Math.floor(((panels.clientWidth || 800) - 12 * (columns - 1)) / columns) - 10);
     const nodes = present.map(function (g) {
       const series = g.series.filter(function (s) { return rec.dual[s[0]]; }).map(function (s, i) {
+        // greedy evaluations (eval/…) are sparse: their own values as dots, not a trailing mean
+        if (s[0].indexOf("eval/") === 0) {
+          return { name: s[1], xs: rec.x, ys: rec.dual[s[0]], cls: "d" + i, axis: "left", dots: true };
+        }
         return { name: s[1], xs: rec.x, ys: smooth(rec.dual[s[0]], win), cls: "d" + i, axis: "left" };
       });
       const box = document.createElement("figure");

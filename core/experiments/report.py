@@ -14,6 +14,9 @@ Scores of one finished cell, from its run directory:
 * ``train_length`` — a diagnostic, not a score: the mean length in env steps of the last 500 training
   episodes (from metrics.csv's ``global_step``). On a level where a failed grasp ends the episode, short
   episodes mean the policy closes its hand before it has travelled (docs/results.md).
+* ``first_return_goal`` — a diagnostic, only for a file with ``return_goal``: the env step of the first
+  greedy evaluation (periodic, else the final one) whose mean return reached the goal; a cell that never
+  did counts as its whole budget, as ``first_success`` does. Study 3's MountainCar goal is stated in it.
 * ``best_eval_return`` — a diagnostic: the best greedy return of any evaluation in the run (the periodic ones
   in metrics.csv and the final one). Beside ``eval_return`` it separates *finding* from *keeping*: a run that
   reached the goal and lost it has a high best and a low final.
@@ -78,7 +81,11 @@ BOOTSTRAPPED = (
     "best_eval_return", "value_gap", "greedy_value_gap",
 )
 """Scores with their own bootstrap (``auc_from_minus1`` is an affine map of ``auc``)."""
-DIAGNOSTICS = ("first_success", "train_length", "best_eval_return", "value_gap", "greedy_value_gap")
+FIRST_RETURN_GOAL = "first_return_goal"
+"""The score key of the env step of the first greedy return ≥ the file's ``return_goal``."""
+DIAGNOSTICS = (
+    "first_success", "train_length", "best_eval_return", "value_gap", "greedy_value_gap", FIRST_RETURN_GOAL,
+)
 """Reported with IQM and CI, but neither better when higher nor compared with the baseline."""
 
 MODEL_FREE = ("ddpg", "cacla", "td3", "sac")
@@ -155,11 +162,24 @@ def _second_half_mean(values: np.ndarray | None) -> float:
     return _finite_mean(values[len(values) // 2 :])
 
 
+def _first_reaching(steps: list[float], values: np.ndarray | None, goal: float) -> float | None:
+    """The step of the first finite value ≥ ``goal`` (None: no such value)."""
+    if values is None:
+        return None
+    return next((step for step, value in zip(steps, values, strict=True) if value >= goal), None)
+
+
 def read_cell(
-    run_dir: Path, label: str, reward: str, seed: int, measures: tuple[str, ...] = ()
+    run_dir: Path,
+    label: str,
+    reward: str,
+    seed: int,
+    measures: tuple[str, ...] = (),
+    return_goal: float | None = None,
 ) -> CellRecord | None:
     """The scores and curve of a finished cell (None if it is not finished); ``measures``: the file's
-    ``episode_measures``, each scored as its second-half mean."""
+    ``episode_measures``, each scored as its second-half mean; ``return_goal``: the file's, which adds
+    ``first_return_goal``."""
     if cell_state(run_dir) != "done":
         return None
     summary = read_summary(run_dir) or {}
@@ -176,7 +196,14 @@ def read_cell(
     start_values = _column(rows, "charts/start_value")
     discounted = _column(rows, "charts/discounted_return")
     hits = [step for step, hit in zip(steps, successes, strict=True) if hit == 1.0]
-    first_success = hits[0] if hits else float(summary.get("steps") or (steps[-1] if steps else math.nan))
+    budget = float(summary.get("steps") or (steps[-1] if steps else math.nan))
+    first_success = hits[0] if hits else budget
+    goal_scores: dict[str, float] = {}
+    if return_goal is not None:
+        reached = _first_reaching(steps, evaluations, return_goal)
+        if reached is None and eval_return is not None and float(eval_return) >= return_goal:
+            reached = budget  # only the final evaluation, at the end of the run, reached it
+        goal_scores[FIRST_RETURN_GOAL] = budget if reached is None else reached
     return CellRecord(
         label=label,
         reward=reward,
@@ -201,6 +228,7 @@ def read_cell(
             "greedy_value_gap": _value_gap(_column(rows, "eval/start_value"),
                                            _column(rows, "eval/discounted_return"), VALUE_GAP_EVALS),
             **{measure: _second_half_mean(_column(rows, measure)) for measure in measures},
+            **goal_scores,
         },
         start_values=start_values,
         discounted_returns=discounted,
@@ -218,7 +246,7 @@ def collect(directory: Path | str) -> tuple[ExperimentSpec, Path, list[CellRecor
             for seed in spec.seeds:
                 record = read_cell(
                     cell_dir(root, method.label, reward, seed), method.label, reward, seed,
-                    spec.episode_measures,
+                    spec.episode_measures, spec.return_goal,
                 )
                 if record is None:
                     missing.append(f"{method.label}/{reward}/seed-{seed}")
@@ -305,13 +333,14 @@ def _report_numbers(
             for metric in compared
         }
 
+    goal_metrics = (FIRST_RETURN_GOAL,) if spec.return_goal is not None else ()
     methods: dict[str, dict[str, Any]] = {}
     for method in spec.methods:
         per_reward: dict[str, Any] = {}
         for reward in spec.rewards:
             entry: dict[str, Any] = {
                 metric: score_summary(scores(method.label, reward, metric), reps=reps)
-                for metric in (*BOOTSTRAPPED, *spec.episode_measures)
+                for metric in (*BOOTSTRAPPED, *spec.episode_measures, *goal_metrics)
             }
             # AuC from −1 is (AuC + 1) / 2 per cell: its statistics follow without a second bootstrap.
             entry["auc_from_minus1"] = affine_summary(entry["auc"], 0.5, 0.5)
@@ -514,6 +543,11 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
                 + " |"
             )
             lines.append(f"| {name} mean ± std | " + " | ".join(_mean_cell(c) for c in cells) + " |")
+        if spec.return_goal is not None:
+            cells = [report["methods"][label][reward][FIRST_RETURN_GOAL] for label in labels]
+            name = f"Steps to greedy return ≥ {spec.return_goal:g}"
+            lines.append(f"| {name} IQM [95% CI] | " + " | ".join(_iqm_cell(c, False) for c in cells) + " |")
+            lines.append(f"| {name} mean ± std | " + " | ".join(_mean_cell(c) for c in cells) + " |")
         for measure in spec.episode_measures:
             cells = [report["methods"][label][reward][measure] for label in labels]
             lines.append(f"| `{measure}` (second half) IQM [95% CI] | "
@@ -564,6 +598,12 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "episodic return.",
         "- **Steps to first success** (diagnostic, lower is sooner): env step at the end of the first "
         "training episode that succeeded; a run that never did counts as its whole budget.",
+        *(
+            [f"- **Steps to greedy return ≥ {spec.return_goal:g}** (diagnostic, lower is sooner; the file's "
+             "`return_goal`): env step of the first greedy evaluation, periodic or final, whose mean return "
+             "reached it; a run that never did counts as its whole budget."]
+            if spec.return_goal is not None else []
+        ),
         "- **Best greedy return** (diagnostic): the best greedy evaluation of the run, periodic or final; "
         "beside the final one it tells a run that found the goal and lost it from one that never found it.",
         f"- **Start value − discounted return** (diagnostic): over the last {VALUE_GAP_EPISODES} training "

@@ -17,6 +17,8 @@ An experiment file is YAML::
     smoothing: {dense: 250, sparse: 375}   # optional: learning-curve windows in episodes (Fig. 8)
     episode_measures: [env/noise_share]    # optional: metrics.csv columns the report summarises per cell
                                     # (their mean over the second half of the training episodes)
+    return_goal: 90                 # optional: a greedy return that counts as solved; the report adds the
+                                    # env step of the first greedy evaluation reaching it (diagnostic)
     overrides: {agent.batch_size: 64}      # optional: config key=value for every method
     methods:
       - label: DDPG                 # folder and legend name: [A-Za-z0-9+._-]
@@ -34,6 +36,7 @@ raises :class:`ExperimentError` with one line naming the offending key.
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -92,6 +95,7 @@ TOP_KEYS: tuple[str, ...] = (
     "baseline",
     "smoothing",
     "episode_measures",
+    "return_goal",
     "overrides",
     "methods",
 )
@@ -142,6 +146,7 @@ class ExperimentSpec:
     overrides: Mapping[str, Any] = field(default_factory=dict)
     description: str = ""
     episode_measures: tuple[str, ...] = ()
+    return_goal: float | None = None
 
     @property
     def nico_grasp(self) -> bool:
@@ -180,6 +185,8 @@ class ExperimentSpec:
         out["smoothing"] = dict(self.smoothing)
         if self.episode_measures:
             out["episode_measures"] = list(self.episode_measures)
+        if self.return_goal is not None:
+            out["return_goal"] = self.return_goal
         if self.overrides:
             out["overrides"] = dict(self.overrides)
         out["methods"] = [method.to_dict() for method in self.methods]
@@ -285,6 +292,12 @@ def _parse(data: Mapping[str, Any]) -> ExperimentSpec:
     measures = data.get("episode_measures") or []
     if not isinstance(measures, list) or not all(isinstance(m, str) and m for m in measures):
         raise ExperimentError("bad value for episode_measures: expected a list of metrics.csv column names")
+    return_goal = data.get("return_goal")
+    if return_goal is not None:
+        number = isinstance(return_goal, int | float) and not isinstance(return_goal, bool)
+        if not number or not math.isfinite(return_goal):
+            raise ExperimentError(f"bad value for return_goal: {return_goal!r} (expected a number)")
+        return_goal = float(return_goal)
     return ExperimentSpec(
         name=name,
         methods=methods,
@@ -302,6 +315,7 @@ def _parse(data: Mapping[str, Any]) -> ExperimentSpec:
         overrides=overrides,
         description=description,
         episode_measures=tuple(measures),
+        return_goal=return_goal,
     )
 
 

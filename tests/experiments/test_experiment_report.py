@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from core.experiments import build_report
 from core.experiments.report import render_markdown
-from core.experiments.spec import read_experiment
+from core.experiments.spec import ExperimentError, read_experiment
 from core.experiments.statistics import _improvement, _trimmed_mean, probability_of_improvement, score_summary
 from dualsys_cli.main import app
 
@@ -270,3 +270,43 @@ def test_dual_methods_are_also_compared_with_rnd_on_the_same_learner(tmp_path: P
     assert report["methods"]["S"]["sparse"]["peer"] is None  # no RND on SAC in this file
     assert report["methods"]["R"]["sparse"]["peer"] is None
     assert "prob_over_peer" not in report["methods"]["B"]["sparse"]
+
+
+def test_steps_to_a_return_goal_count_the_first_greedy_evaluation_that_reached_it(tmp_path: Path) -> None:
+    """``return_goal`` (study 3's MountainCar goal): the env step of the first greedy evaluation whose return
+    reached the goal, the final one if only it did, the budget if none did; a diagnostic, never compared."""
+    root = tmp_path / "goal"
+    root.mkdir()
+    spec = {"name": "goal", "rewards": ["sparse"], "seeds": [0, 1, 2], "steps": 100, "return_goal": 90,
+            "methods": [{"label": "M", "algo": "im2c", "ac": "sac"}, {"label": "B", "algo": "sac"}]}
+    (root / "experiment.yaml").write_text(yaml.safe_dump(spec))
+    periodic = {0: {4: 50.0, 8: 95.0, 12: 20.0}, 1: {4: 89.9}, 2: {}}  # episode -> greedy return
+    final = {0: 5.0, 1: 92.0, 2: 89.0}
+    for seed in (0, 1, 2):
+        write_cell(root, "B", "sparse", seed, [0.0] * 20, 0.0)
+        cell = root / "M" / "sparse" / f"seed-{seed}"
+        write_cell(root, "M", "sparse", seed, [0.0] * 20, 0.0)
+        with (cell / "metrics.csv").open("w", newline="") as file:
+            writer = csv.writer(file)
+            writer.writerow(["episode", "global_step", "charts/episodic_return", "charts/success",
+                             "eval/return"])
+            for episode in range(1, 21):
+                writer.writerow([episode, 5 * episode, 0.0, 0, periodic[seed].get(episode, "")])
+        summary = json.loads((cell / "summary.json").read_text())
+        (cell / "summary.json").write_text(json.dumps({**summary, "eval_return": final[seed]}))
+    report = build_report(root)
+    m, b = report["methods"]["M"]["sparse"], report["methods"]["B"]["sparse"]
+    # seed 0: the periodic 95 at episode 8 (step 40); seed 1: only the final 92 (the budget, 100);
+    # seed 2: never
+    assert m["first_return_goal"]["mean"] == pytest.approx(np.mean([40.0, 100.0, 100.0]))
+    assert b["first_return_goal"]["mean"] == pytest.approx(100.0)  # final returns 0.0: never reached
+    assert "first_return_goal" not in m["prob_improvement"]
+    markdown = render_markdown(read_experiment(root / "experiment.yaml"), report)
+    assert "| Steps to greedy return ≥ 90 IQM [95% CI] |" in markdown
+    # Without a goal in the file there is no such score, and a goal that is not a number is refused.
+    spec.pop("return_goal")
+    (root / "experiment.yaml").write_text(yaml.safe_dump(spec))
+    assert "first_return_goal" not in build_report(root)["methods"]["M"]["sparse"]
+    for bad in ("ninety", True, float("nan")):
+        with pytest.raises(ExperimentError, match="return_goal"):
+            read_experiment({**spec, "return_goal": bad})

@@ -15,8 +15,9 @@ Scores of one finished cell, from its run directory:
   episodes (from metrics.csv's ``global_step``). On a level where a failed grasp ends the episode, short
   episodes mean the policy closes its hand before it has travelled (docs/results.md).
 * ``first_return_goal`` — a diagnostic, only for a file with ``return_goal``: the env step of the first
-  greedy evaluation (periodic, else the final one) whose mean return reached the goal; a cell that never
-  did counts as its whole budget, as ``first_success`` does. Study 3's MountainCar goal is stated in it.
+  periodic greedy evaluation whose mean return reached the goal; a cell where none did (the final
+  evaluation at the end of the run included) counts as its whole budget, as ``first_success`` does.
+  Study 3's MountainCar goal is stated in it.
 * ``best_eval_return`` — a diagnostic: the best greedy return of any evaluation in the run (the periodic ones
   in metrics.csv and the final one). Beside ``eval_return`` it separates *finding* from *keeping*: a run that
   reached the goal and lost it has a high best and a low final.
@@ -200,9 +201,9 @@ def read_cell(
     first_success = hits[0] if hits else budget
     goal_scores: dict[str, float] = {}
     if return_goal is not None:
+        # A run reaching the goal only at its final evaluation (taken at the end of the budget) and one that
+        # never reaches it both count as the budget.
         reached = _first_reaching(steps, evaluations, return_goal)
-        if reached is None and eval_return is not None and float(eval_return) >= return_goal:
-            reached = budget  # only the final evaluation, at the end of the run, reached it
         goal_scores[FIRST_RETURN_GOAL] = budget if reached is None else reached
     return CellRecord(
         label=label,
@@ -600,8 +601,8 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "training episode that succeeded; a run that never did counts as its whole budget.",
         *(
             [f"- **Steps to greedy return ≥ {spec.return_goal:g}** (diagnostic, lower is sooner; the file's "
-             "`return_goal`): env step of the first greedy evaluation, periodic or final, whose mean return "
-             "reached it; a run that never did counts as its whole budget."]
+             "`return_goal`): env step of the first periodic greedy evaluation whose mean return reached "
+             "it; a run where none did counts as its whole budget (as does one where only the final did)."]
             if spec.return_goal is not None else []
         ),
         "- **Best greedy return** (diagnostic): the best greedy evaluation of the run, periodic or final; "

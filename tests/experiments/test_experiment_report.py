@@ -273,8 +273,9 @@ def test_dual_methods_are_also_compared_with_rnd_on_the_same_learner(tmp_path: P
 
 
 def test_steps_to_a_return_goal_count_the_first_greedy_evaluation_that_reached_it(tmp_path: Path) -> None:
-    """``return_goal`` (study 3's MountainCar goal): the env step of the first greedy evaluation whose return
-    reached the goal, the final one if only it did, the budget if none did; a diagnostic, never compared."""
+    """``return_goal`` (study 3's MountainCar goal): the env step of the first periodic greedy evaluation
+    whose return reached the goal, else the budget (also when only the final evaluation, at the end of the
+    run, did); a diagnostic, never compared."""
     root = tmp_path / "goal"
     root.mkdir()
     spec = {"name": "goal", "rewards": ["sparse"], "seeds": [0, 1, 2], "steps": 100, "return_goal": 90,

@@ -135,14 +135,26 @@ def test_experiment_report_table_and_figure_from_real_cells(
 
         done = wait_for(finished, timeout=1500, interval=1.0, what="the experiment to finish")
         assert done["cells"]["done"] == 2, done
-        # the page asks for the report (the service bootstraps it once per set of finished cells; slow
-        # on a loaded machine), then the test reads the same, cached, numbers
+        # The service bootstraps a report once per set of finished cells (slow on a loaded machine) and
+        # answers with the latest finished one, flagged report_pending while a newer one is computed: a
+        # report of the first finished cell alone can come first. Wait for the report of both, then for
+        # the page, which asks again while its report is pending, to show it.
+
+        def current_report() -> dict | None:
+            body = client.get(f"/experiments/{created['id']}").json()
+            report = body["report"]
+            current = report is not None and report["done"] == 2 and not body["report_pending"]
+            return report if current else None
+
+        report = wait_for(current_report, timeout=600, interval=1.0, what="the report of both cells")
         wait_for(
-            lambda: len(browser.find_elements("css selector", "#report table.report tbody tr")) == 2,
-            timeout=600,
-            what="the report table",
+            lambda: browser.execute_script(  # one read of the table, which a redraw cannot leave stale
+                "return Array.from(document.querySelectorAll('#report table.report tbody tr'),"
+                " row => row.querySelector('td').textContent.trim())"
+            ) == ["1", "1"],
+            timeout=120,
+            what="the page's report of both cells",
         )
-        report = client.get(f"/experiments/{created['id']}").json()["report"]
     rows = {
         r.find_element("css selector", "th").text: [c.text for c in r.find_elements("css selector", "td")]
         for r in browser.find_elements("css selector", "#report table.report tbody tr")

@@ -86,6 +86,51 @@ class _ProgressView:
         return Group(header, table)
 
 
+class _EventLog:
+    """The progress of :class:`_ProgressView` for a log (stderr is not a terminal: ``nohup``, a batch job).
+
+    One timestamped line per cell that starts, finishes, fails or is interrupted, and every ``heartbeat_s``
+    one line per running cell with its steps, so a background grid's log says where it is."""
+
+    def __init__(self, console: Console, heartbeat_s: float = 600.0) -> None:
+        self.console = console
+        self.heartbeat_s = heartbeat_s
+        self.seen: dict[str, str] = {}
+        self.started_at: dict[str, float] = {}
+        self.last_heartbeat = time.monotonic()
+
+    def update(self, progress: Any) -> None:
+        now = time.monotonic()
+        if not self.seen:
+            already = progress.count("skipped")
+            self._line(progress, f"{len(progress.cells)} cells, {already} already done")
+        for key, cell in progress.cells.items():
+            before = self.seen.get(key, "queued")
+            self.seen[key] = cell.status
+            if cell.status == before or cell.status in ("queued", "skipped"):
+                continue
+            if cell.status == "running":
+                self.started_at[key] = now
+                self._line(progress, f"{key} started ({cell.worker or 'worker'}, from step {cell.step:,})")
+                continue
+            took = now - self.started_at.get(key, now)
+            detail = f" at step {cell.step:,} after {_minutes(took)}" if cell.step else ""
+            reason = f": {cell.message}" if cell.message else ""
+            self._line(progress, f"{key} {cell.status}{detail}{reason}")
+        if now - self.last_heartbeat >= self.heartbeat_s:
+            self.last_heartbeat = now
+            for cell in progress.running():
+                self._line(progress, f"{cell.key} at step {cell.step:,}/{cell.budget:,}")
+
+    def _line(self, progress: Any, text: str) -> None:
+        counts = f"{progress.count('done', 'skipped')}/{len(progress.cells)} done"
+        stamp = time.strftime("%Y-%m-%d %H:%M:%S")
+        self.console.print(f"{stamp} {progress.experiment} [{counts}] {text}", markup=False, highlight=False)
+
+
+def _minutes(seconds: float) -> str:
+    return f"{int(seconds // 60)}:{int(seconds % 60):02d}"
+
 
 def _stop_on_ctrl_c_and_term() -> None:
     """Ctrl-C (SIGINT) and SIGTERM stop the grid with every cell resumable, whatever this process inherited:
@@ -97,6 +142,7 @@ def _stop_on_ctrl_c_and_term() -> None:
 
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, interrupt)
+
 
 @app.command("run")
 def run_command(
@@ -116,14 +162,20 @@ def run_command(
     from core.experiments import load_experiment, run_experiment
 
     console = Console(stderr=True)
-    view = _ProgressView()
     _stop_on_ctrl_c_and_term()
     with user_errors():
         spec = load_experiment(resolve_experiment_file(file))
         try:
-            with Live(view, console=console, refresh_per_second=4, transient=False):
+            if console.is_terminal:
+                view = _ProgressView()
+                with Live(view, console=console, refresh_per_second=4, transient=False):
+                    result = run_experiment(
+                        spec, out, workers=workers, ray_address=ray, progress_callback=view.update
+                    )
+            else:
+                log = _EventLog(console)
                 result = run_experiment(
-                    spec, out, workers=workers, ray_address=ray, progress_callback=view.update
+                    spec, out, workers=workers, ray_address=ray, progress_callback=log.update
                 )
         except KeyboardInterrupt:
             typer.secho(

@@ -64,6 +64,13 @@ def test_grid_runs_on_two_workers_and_a_second_run_skips_every_cell(tmp_path, wr
             config = yaml.safe_load((cell / "config.yaml").read_text())
             assert config["run"]["steps"] == 100 and config["run"]["episodes"] is None
             assert config["run"]["num_threads"] == 1
+    # stderr is no terminal here (as under nohup): the log has one line per cell that starts and finishes.
+    log = first.stderr.splitlines()
+    assert "tiny [0/4 done] 4 cells, 0 already done" in log[0]
+    for key in outcome["done"]:
+        assert sum(f"] {key} started (pid " in line for line in log) == 1, log
+        assert sum(f"] {key} done at step " in line for line in log) == 1, log
+    assert "[4/4 done]" in [line for line in log if " done at step " in line][-1]
     started = time.monotonic()
     second = CliRunner().invoke(app, ["experiment", "run", str(path), "--out", str(out), "--json"])
     elapsed = time.monotonic() - started
@@ -71,6 +78,7 @@ def test_grid_runs_on_two_workers_and_a_second_run_skips_every_cell(tmp_path, wr
     again = json.loads(second.stdout.strip().splitlines()[-1])
     assert sorted(again["skipped"]) == sorted(outcome["done"]) and again["done"] == []
     assert elapsed < 15, elapsed  # no worker is started, no cell retrained
+    assert "[4/4 done] 4 cells, 4 already done" in second.stderr and " started " not in second.stderr
 
 
 @pytest.mark.timeout(SLOW_MACHINE_TIMEOUT_S)

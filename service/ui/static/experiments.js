@@ -329,7 +329,20 @@
     let timer = null;
     let curvesAt = 0;
     let curvesDone = -1;
+    let busy = false;
+    // One refresh at a time: on a loaded machine a report request can outlast the poll period, and an older
+    // answer arriving after a newer one would redraw a stale report (and re-flag it pending after the poll
+    // had stopped), leaving the page on it.
     async function refresh() {
+      if (busy) return;
+      busy = true;
+      try {
+        await refreshOnce();
+      } finally {
+        busy = false;
+      }
+    }
+    async function refreshOnce() {
       const result = await window.dualsys.api("GET", "/experiments/" + id + "?report=false");
       if (!result.ok) {
         document.getElementById("experiment-cells").textContent = result.message;
@@ -363,6 +376,7 @@
         timer = window.setInterval(function () { if (!document.hidden) refresh(); }, POLL_MS);
       } else if (finished && timer !== null) {
         window.clearInterval(timer);
+        timer = null;
       }
     }
     document.getElementById("grid").addEventListener("change", function (event) {

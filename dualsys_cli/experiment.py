@@ -111,7 +111,7 @@ class _EventLog:
                 continue
             if cell.status == "running":
                 self.started_at[key] = now
-                self._line(progress, f"{key} started ({cell.worker or 'worker'}, from step {cell.step:,})")
+                self._line(progress, f"{key} started ({cell.worker or 'worker'})")
                 continue
             took = now - self.started_at.get(key, now)
             detail = f" at step {cell.step:,} after {_minutes(took)}" if cell.step else ""
@@ -125,7 +125,8 @@ class _EventLog:
     def _line(self, progress: Any, text: str) -> None:
         counts = f"{progress.count('done', 'skipped')}/{len(progress.cells)} done"
         stamp = time.strftime("%Y-%m-%d %H:%M:%S")
-        self.console.print(f"{stamp} {progress.experiment} [{counts}] {text}", markup=False, highlight=False)
+        line = f"{stamp} {progress.experiment} [{counts}] {text}"
+        self.console.print(line, markup=False, highlight=False, soft_wrap=True)  # never wrapped
 
 
 def _minutes(seconds: float) -> str:

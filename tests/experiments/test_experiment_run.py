@@ -7,6 +7,7 @@ import csv
 import itertools
 import json
 import os
+import re
 import signal
 import time
 
@@ -45,8 +46,10 @@ def rows(run_dir) -> list[dict[str, str]]:
 def test_grid_runs_on_two_workers_and_a_second_run_skips_every_cell(tmp_path, write_experiment):
     path = write_experiment()
     out = tmp_path / "out"
-    first = CliRunner().invoke(
-        app, ["experiment", "run", str(path), "--out", str(out), "--workers", "2", "--json"]
+    first = CliRunner().invoke(  # a narrow "terminal": log lines must not wrap at its width
+        app,
+        ["experiment", "run", str(path), "--out", str(out), "--workers", "2", "--json"],
+        env={"COLUMNS": "40"},
     )
     assert first.exit_code == 0, first.output
     outcome = json.loads(first.stdout.strip().splitlines()[-1])
@@ -67,8 +70,9 @@ def test_grid_runs_on_two_workers_and_a_second_run_skips_every_cell(tmp_path, wr
     # stderr is no terminal here (as under nohup): the log has one line per cell that starts and finishes.
     log = first.stderr.splitlines()
     assert "tiny [0/4 done] 4 cells, 0 already done" in log[0]
-    for key in outcome["done"]:
-        assert sum(f"] {key} started (pid " in line for line in log) == 1, log
+    for key in outcome["done"]:  # one line each, however long: a log is not wrapped at a terminal's width
+        started = rf"\] {re.escape(key)} started \(pid \d+\)$"
+        assert sum(bool(re.search(started, line)) for line in log) == 1, log
         assert sum(f"] {key} done at step " in line for line in log) == 1, log
     assert "[4/4 done]" in [line for line in log if " done at step " in line][-1]
     started = time.monotonic()

@@ -8,6 +8,7 @@ writes report.md and the figures (docs/experiments.md).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import signal
@@ -64,7 +65,7 @@ class _ProgressView:
             (f" · {progress.count('interrupted')} interrupted", "yellow")
             if progress.count("interrupted")
             else "",
-            f" · {int(elapsed // 60)}:{int(elapsed % 60):02d}",
+            f" · {_minutes(elapsed)}",
         )
         running = progress.running()
         if not running:
@@ -166,17 +167,16 @@ def run_command(
     _stop_on_ctrl_c_and_term()
     with user_errors():
         spec = load_experiment(resolve_experiment_file(file))
+        if console.is_terminal:
+            view = _ProgressView()
+            display: Any = Live(view, console=console, refresh_per_second=4, transient=False)
+            on_progress = view.update
+        else:
+            display, on_progress = contextlib.nullcontext(), _EventLog(console).update
         try:
-            if console.is_terminal:
-                view = _ProgressView()
-                with Live(view, console=console, refresh_per_second=4, transient=False):
-                    result = run_experiment(
-                        spec, out, workers=workers, ray_address=ray, progress_callback=view.update
-                    )
-            else:
-                log = _EventLog(console)
+            with display:
                 result = run_experiment(
-                    spec, out, workers=workers, ray_address=ray, progress_callback=log.update
+                    spec, out, workers=workers, ray_address=ray, progress_callback=on_progress
                 )
         except KeyboardInterrupt:
             typer.secho(

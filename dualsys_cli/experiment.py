@@ -156,6 +156,13 @@ def run_command(
     ray: str = typer.Option(
         None, "--ray", help="Run cells as Ray tasks on this cluster (e.g. 10.0.0.5:6379); OUT must be shared."
     ),
+    from_archive: Path = typer.Option(
+        None,
+        "--from-archive",
+        help="First copy the finished cells archived here (TO/<name> of `experiment archive`, or TO) into "
+        "OUT where they have not started, so they are skipped: to go on with a grid of which only the "
+        "archive was kept.",
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line with the outcome."),
 ) -> None:
     """Run every unfinished cell of an experiment; again, to resume after an interruption."""
@@ -167,6 +174,11 @@ def run_command(
     _stop_on_ctrl_c_and_term()
     with user_errors():
         spec = load_experiment(resolve_experiment_file(file))
+        if from_archive is not None:
+            from core.experiments.archive import restore_archive
+
+            restored = restore_archive(from_archive, spec, out)
+            console.print(f"{len(restored)} finished cells restored from {from_archive}", soft_wrap=True)
         if console.is_terminal:
             view = _ProgressView()
             display: Any = Live(view, console=console, refresh_per_second=4, transient=False)

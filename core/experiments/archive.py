@@ -7,6 +7,10 @@ SB3 peer's ``sb3_hyperparams.json`` to say how it ran). :func:`archive_experimen
 it, and a grid run in pieces (seeds on different days or machines) merges into one archive: the stored
 experiment.yaml becomes the union of the methods and seeds archived so far. Pieces that disagree on anything
 else (budget, task, profile, common overrides) are refused rather than mixed.
+
+:func:`restore_archive` is the way back: it copies an archive's done cells into an output folder where those
+cells have not started, so that ``dualsys experiment run --from-archive`` on a machine that kept nothing but
+the repository skips them and runs only the rest of the grid.
 """
 
 from __future__ import annotations
@@ -17,7 +21,14 @@ import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
-from core.experiments.cells import EXPERIMENT_FILE, cell_dir, cell_state
+from core.experiments.cells import (
+    EXPERIMENT_FILE,
+    cell_dir,
+    cell_state,
+    clear_unresumable,
+    expand_cells,
+    settings_conflict,
+)
 from core.experiments.report import find_experiment_dir
 from core.experiments.spec import ExperimentError, ExperimentSpec, read_experiment
 from core.runs.run_dir import atomic_write_text
@@ -90,3 +101,43 @@ def merge_pieces(archived: ExperimentSpec, piece: ExperimentSpec) -> ExperimentS
     methods = tuple(m for m in archived.methods if m.label not in labels) + piece.methods
     seeds = tuple(sorted({*archived.seeds, *piece.seeds}))
     return dataclasses.replace(piece, methods=methods, seeds=seeds)
+
+
+def restore_archive(archive: Path | str, spec: ExperimentSpec, out: Path | str) -> tuple[str, ...]:
+    """Copy the done cells of ``spec`` archived in ``archive`` (``DEST/<name>`` or ``DEST``) into
+    ``out/<name>`` wherever that cell has not started (neither done nor resumable there); returns their keys.
+
+    A later run into ``out`` then skips them. All or nothing: raises :class:`ExperimentError`, copying
+    nothing, when the archive is of another grid (:func:`merge_pieces`) or one of its cells ran with
+    settings ``spec`` no longer gives (the check a resumed cell gets, :func:`~core.experiments.cells.
+    settings_conflict`)."""
+    source = _archive_dir(Path(archive), spec.name)
+    merge_pieces(read_experiment(source / EXPERIMENT_FILE), spec)
+    pending: list[tuple[Path, Path]] = []
+    keys: list[str] = []
+    for cell in expand_cells(spec, out):
+        archived = dataclasses.replace(cell, run_dir=cell_dir(source, cell.label, cell.reward, cell.seed))
+        if cell_state(archived.run_dir) != "done" or cell_state(cell.run_dir) != "new":
+            continue
+        reason = settings_conflict(archived)
+        if reason is not None:
+            raise ExperimentError(
+                f"the archived cell {cell.key} in {archived.run_dir} ran with other settings: {reason}"
+            )
+        pending.append((archived.run_dir, cell.run_dir))
+        keys.append(cell.key)
+    for archived_dir, run_dir in pending:
+        clear_unresumable(run_dir)
+        run_dir.mkdir(parents=True, exist_ok=True)
+        for name in ARCHIVED_FILES:
+            if (archived_dir / name).is_file():
+                shutil.copyfile(archived_dir / name, run_dir / name)
+    return tuple(keys)
+
+
+def _archive_dir(path: Path, name: str) -> Path:
+    """``path`` if it is an archive of the experiment ``name``, else ``path/name``."""
+    for candidate in (path, path / name):
+        if (candidate / EXPERIMENT_FILE).is_file():
+            return candidate
+    raise ExperimentError(f"no archive of {name!r} in {path} (neither {path} nor {path / name} holds one)")

@@ -165,7 +165,7 @@ RUN_FILES: tuple[str, ...] = (
 )
 
 
-def _clear_unresumable(run_dir: Path) -> None:
+def clear_unresumable(run_dir: Path) -> None:
     """Remove what a run killed before its first checkpoint left (episodes that cannot be resumed)."""
     for name in RUN_FILES:
         (run_dir / name).unlink(missing_ok=True)
@@ -193,7 +193,7 @@ def run_cell(
     if reason is not None:
         raise ExperimentError(f"cell {cell.key} was run with other settings: {reason}")
     if state == "new":
-        _clear_unresumable(cell.run_dir)
+        clear_unresumable(cell.run_dir)
     runner = runner_for(cell.algo)
     return runner.train(
         cell.config,

@@ -1,8 +1,9 @@
 """An archive keeps what a report reads and nothing heavier; a grid archived in two pieces reports exactly
-like the whole grid; pieces of different grids are refused with one line."""
+like the whole grid; pieces of different grids are refused with one line; a grid goes on from its archive."""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -10,8 +11,8 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from core.experiments import build_report
-from core.experiments.archive import archive_experiment
+from core.experiments import build_report, load_experiment, run_experiment
+from core.experiments.archive import archive_experiment, restore_archive
 from core.experiments.spec import ExperimentError
 from dualsys_cli.main import app
 from tests.experiments.test_experiment_report import SEEDS, made_up, write_cell  # noqa: F401 (fixture)
@@ -65,3 +66,39 @@ def test_pieces_of_different_grids_are_refused(made_up: Path, tmp_path: Path) ->
     assert result.exit_code == 2 and result.stderr.strip().count("\n") == 0
     result = CliRunner().invoke(app, ["experiment", "archive", str(made_up), "--to", str(tmp_path / "more")])
     assert result.exit_code == 0 and "8 finished cells archived" in result.stdout
+
+
+@pytest.mark.timeout(1800)  # two real tiny cells in worker processes; a loaded 2-core machine can be slow
+def test_a_grid_goes_on_from_its_archive_alone(tmp_path: Path, write_experiment) -> None:
+    """Seed 0 ran on one machine and only its archive was kept; on another, `run --from-archive` restores
+    it (skipped, its numbers unchanged) and runs seed 1 alone. An archived cell whose settings the experiment
+    no longer gives is refused before anything is copied, as a resumed cell would be."""
+    one_method = [{"label": "DDPG", "algo": "ddpg"}]
+    first_day = write_experiment("day1.yaml", methods=one_method, seeds=[0])
+    assert run_experiment(load_experiment(first_day), tmp_path / "day1", workers=1).complete
+    archive_experiment(tmp_path / "day1" / "tiny", tmp_path / "results")
+    archived = tmp_path / "results" / "tiny" / "DDPG" / "dense" / "seed-0"
+
+    whole = write_experiment("whole.yaml", methods=one_method, seeds=[0, 1])
+    args = ["experiment", "run", str(whole), "--out", str(tmp_path / "day2"), "--workers", "1", "--json"]
+    result = CliRunner().invoke(app, [*args, "--from-archive", str(tmp_path / "results")])
+    assert result.exit_code == 0, result.output
+    assert "1 finished cells restored" in result.stderr
+    outcome = json.loads(result.stdout.strip().splitlines()[-1])
+    assert outcome["skipped"] == ["DDPG/dense/seed-0"] and outcome["done"] == ["DDPG/dense/seed-1"]
+    restored = tmp_path / "day2" / "tiny" / "DDPG" / "dense" / "seed-0"
+    assert (restored / "metrics.csv").read_bytes() == (archived / "metrics.csv").read_bytes()
+    assert restore_archive(tmp_path / "results" / "tiny", load_experiment(whole), tmp_path / "day2") == ()
+
+    config = yaml.safe_load((archived / "config.yaml").read_text())
+    config["agent"]["batch_size"] = 16
+    (archived / "config.yaml").write_text(yaml.safe_dump(config))
+    with pytest.raises(ExperimentError, match=r"agent\.batch_size was 16"):
+        restore_archive(tmp_path / "results", load_experiment(whole), tmp_path / "day3")
+    assert not (tmp_path / "day3").exists()
+    other_grid = write_experiment("other.yaml", methods=one_method, seeds=[0, 1], steps=200)
+    with pytest.raises(ExperimentError, match="steps=100"):
+        restore_archive(tmp_path / "results", load_experiment(other_grid), tmp_path / "day3")
+    args = ["experiment", "run", str(whole), "--from-archive", str(tmp_path / "no")]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 2 and "no archive of 'tiny'" in result.stderr

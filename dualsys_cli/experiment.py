@@ -130,6 +130,31 @@ class _EventLog:
         self.console.print(line, markup=False, highlight=False, soft_wrap=True)  # never wrapped
 
 
+class _ArchiveAsCellsFinish:
+    """``--archive-to``: archive the finished cells at the first progress report and whenever one more
+    finishes. The first archive fails the run (an archive of another grid is refused before any cell
+    trains); a later failure (a full disk) is a warning, and the grid goes on."""
+
+    def __init__(self, show: Any, directory: Path, to: Path, console: Console) -> None:
+        self.show, self.directory, self.to, self.console = show, directory, to, console
+        self.archived = -1
+
+    def update(self, progress: Any) -> None:
+        from core.experiments.archive import archive_experiment
+
+        self.show(progress)
+        done = progress.count("done", "skipped")
+        if done == self.archived:
+            return
+        first, self.archived = self.archived < 0, done
+        try:
+            archive_experiment(self.directory, self.to)
+        except OSError as exc:
+            if first:
+                raise
+            self.console.print(f"warning: archiving into {self.to} failed: {exc}", soft_wrap=True)
+
+
 def _minutes(seconds: float) -> str:
     return f"{int(seconds // 60)}:{int(seconds % 60):02d}"
 
@@ -163,6 +188,12 @@ def run_command(
         "OUT where they have not started, so they are skipped: to go on with a grid of which only the "
         "archive was kept.",
     ),
+    archive_to: Path = typer.Option(
+        None,
+        "--archive-to",
+        help="Archive the finished cells into TO/<name> (as `experiment archive --to TO`) at the start and "
+        "as each cell finishes, so a machine lost mid-grid loses only the cells in flight.",
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line with the outcome."),
 ) -> None:
     """Run every unfinished cell of an experiment; again, to resume after an interruption."""
@@ -185,6 +216,8 @@ def run_command(
             on_progress = view.update
         else:
             display, on_progress = contextlib.nullcontext(), _EventLog(console).update
+        if archive_to is not None:
+            on_progress = _ArchiveAsCellsFinish(on_progress, out / spec.name, archive_to, console).update
         try:
             with display:
                 result = run_experiment(

@@ -11,7 +11,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from core.experiments import build_report, load_experiment, run_experiment
+from core.experiments import build_report, load_experiment
 from core.experiments.archive import archive_experiment, restore_archive
 from core.experiments.spec import ExperimentError
 from dualsys_cli.main import app
@@ -75,19 +75,22 @@ def test_a_grid_goes_on_from_its_archive_alone(tmp_path: Path, write_experiment)
     no longer gives is refused before anything is copied, as a resumed cell would be."""
     one_method = [{"label": "DDPG", "algo": "ddpg"}]
     first_day = write_experiment("day1.yaml", methods=one_method, seeds=[0])
-    assert run_experiment(load_experiment(first_day), tmp_path / "day1", workers=1).complete
-    archive_experiment(tmp_path / "day1" / "tiny", tmp_path / "results")
+    results = str(tmp_path / "results")
+    day1 = ["experiment", "run", str(first_day), "--out", str(tmp_path / "day1"), "--workers", "1"]
+    assert CliRunner().invoke(app, [*day1, "--archive-to", results]).exit_code == 0
     archived = tmp_path / "results" / "tiny" / "DDPG" / "dense" / "seed-0"
+    assert (archived / "summary.json").is_file() and not (archived / "checkpoints").exists()
 
     whole = write_experiment("whole.yaml", methods=one_method, seeds=[0, 1])
     args = ["experiment", "run", str(whole), "--out", str(tmp_path / "day2"), "--workers", "1", "--json"]
-    result = CliRunner().invoke(app, [*args, "--from-archive", str(tmp_path / "results")])
+    result = CliRunner().invoke(app, [*args, "--from-archive", results, "--archive-to", results])
     assert result.exit_code == 0, result.output
     assert "1 finished cells restored" in result.stderr
     outcome = json.loads(result.stdout.strip().splitlines()[-1])
     assert outcome["skipped"] == ["DDPG/dense/seed-0"] and outcome["done"] == ["DDPG/dense/seed-1"]
     restored = tmp_path / "day2" / "tiny" / "DDPG" / "dense" / "seed-0"
     assert (restored / "metrics.csv").read_bytes() == (archived / "metrics.csv").read_bytes()
+    assert build_report(tmp_path / "results" / "tiny")["done"] == 2  # the archive holds the whole grid now
     assert restore_archive(tmp_path / "results" / "tiny", load_experiment(whole), tmp_path / "day2") == ()
 
     config = yaml.safe_load((archived / "config.yaml").read_text())
@@ -102,3 +105,7 @@ def test_a_grid_goes_on_from_its_archive_alone(tmp_path: Path, write_experiment)
     args = ["experiment", "run", str(whole), "--from-archive", str(tmp_path / "no")]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 2 and "no archive of 'tiny'" in result.stderr
+    day4 = ["experiment", "run", str(other_grid), "--out", str(tmp_path / "day4"), "--archive-to", results]
+    result = CliRunner().invoke(app, day4)  # refused before any cell trains
+    assert result.exit_code == 2 and "steps=100" in result.stderr
+    assert not list((tmp_path / "day4").glob("tiny/*/*/seed-*"))

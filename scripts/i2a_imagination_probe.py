@@ -1,0 +1,95 @@
+"""Probe: what the imagined minibatch does to SAC+I2A's critic (Algorithm 3, lines 34-37), on one seed.
+
+Runs one SAC+I2A cell with the settings of a finished grid cell (its ``config.yaml``) on another seed and
+budget, and every ``--every`` updates writes one JSON line comparing the pixel minibatch with the imagined
+one: how far the imagined latents leave the real minibatch's per-dimension range, the rewards the models
+predict, the critic's values and TD targets on both, the mean TD error on both, and α. Grid 4
+(reacher-hard) found SAC+I2A's critic diverging in both of its first reporting cells; this is how the
+diagnosis on tuning seeds was made (docs/results.md, grid 4). It wraps the learner's update from outside,
+so the run it observes is the same run as without it. A rerun on the same directory resumes.
+
+    OMP_NUM_THREADS=1 python scripts/i2a_imagination_probe.py \
+        results/study3-reacher-hard/SAC+I2A/task/seed-1/config.yaml --seed 101 --steps 100000 --out probe-101
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import torch
+import yaml
+
+from core.config import Config
+from core.modelfree.learners import base
+from core.modelfree.replay import LatentBatch, PixelBatch
+from core.runs.trainer import train
+
+
+def compare(learner: base.Learner, pixel: PixelBatch, latent: LatentBatch) -> dict[str, object]:
+    """The pixel minibatch beside the imagined one (module docstring)."""
+    with torch.no_grad():
+        phi = learner.encoder(learner.encoder.prepare(pixel.obs))
+        low, high = phi.min(0).values, phi.max(0).values
+        margin = 0.25 * (high - low).clamp_min(1e-6)
+
+        def outside(x: torch.Tensor) -> float:
+            return float(((x < low - margin) | (x > high + margin)).any(1).float().mean())
+
+        def twin_min(q: torch.Tensor) -> torch.Tensor:
+            return q if q.dim() == 1 else q.min(0).values
+
+        q_real = twin_min(learner.critic(phi, pixel.action))
+        q_imagined = twin_min(learner.critic(latent.latent, latent.action))
+        next_phi = learner.target_encoder(learner.encoder.prepare(pixel.next_obs))
+        y_real = learner.td_target(pixel.reward, next_phi, pixel.terminated)
+        y_imagined = learner.td_target(latent.reward, latent.next_latent, latent.done)
+        return {
+            "imagined": int(latent.latent.shape[0]),
+            "latent_outside": outside(latent.latent),
+            "next_latent_outside": outside(latent.next_latent),
+            "abs_max": {"real": float(phi.abs().max()), "imagined": float(latent.latent.abs().max()),
+                        "imagined_next": float(latent.next_latent.abs().max())},
+            "reward": {"real": [float(pixel.reward.min()), float(pixel.reward.max())],
+                       "imagined": [float(latent.reward.min()), float(latent.reward.max())]},
+            "q_mean": {"real": float(q_real.mean()), "imagined": float(q_imagined.mean())},
+            "q_abs_max": {"real": float(q_real.abs().max()), "imagined": float(q_imagined.abs().max())},
+            "td_target_mean": {"real": float(y_real.mean()), "imagined": float(y_imagined.mean())},
+            "td_error": {"real": float((q_real - y_real).abs().mean()),
+                         "imagined": float((q_imagined - y_imagined).abs().mean())},
+            "alpha": float(learner.alpha) if hasattr(learner, "alpha") else None,
+        }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("config", type=Path, help="a grid cell's config.yaml (an I2A cell)")
+    parser.add_argument("--seed", type=int, required=True, help="a tuning seed (>= 100)")
+    parser.add_argument("--steps", type=int, required=True)
+    parser.add_argument("--out", type=Path, required=True, help="run directory; its .jsonl sits beside it")
+    parser.add_argument("--every", type=int, default=500, help="updates between two records")
+    args = parser.parse_args()
+    data = yaml.safe_load(args.config.read_text())
+    data["run"].update(seed=args.seed, steps=args.steps)
+    config = Config.from_dict(data)
+    records = args.out.with_suffix(".jsonl").open("a")
+    update = base.Learner.update_with_imagination
+    count = 0
+
+    def observed(learner: base.Learner, pixel: PixelBatch, latent: LatentBatch | None) -> dict[str, float]:
+        nonlocal count
+        count += 1
+        if latent is not None and count % args.every == 0:
+            record = {"update": learner.updates + 1, **compare(learner, pixel, latent)}
+            records.write(json.dumps(record) + "\n")
+            records.flush()
+        return update(learner, pixel, latent)
+
+    base.Learner.update_with_imagination = observed
+    resume = (args.out / "checkpoints").exists()
+    print(train(config, args.out, resume=resume, command="i2a imagination probe"))
+
+
+if __name__ == "__main__":
+    main()

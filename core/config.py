@@ -309,6 +309,12 @@ class DualConfig:
     the current encoder, made at each update and never stored, gated by the node's held-out error over the
     no-change error, ``done`` from a termination head on each local model (BCE on the real ``terminated``);
     repaired_no_termination — repaired without the head (what the literal IM2C of mountaincar-repairs ran)."""
+    imagination_depth: int | None = None
+    """Most model steps of one learn-time imagined rollout (``imagination = repaired``; the act-time rollouts
+    of ``paper`` are the planner's and keep D_max). None: D_max, the depth of Alg. 1, as before this option.
+    1: every imagined transition starts at a real minibatch state, so only its next state is the model's
+    (MBPO's short rollouts, Janner et al. 2019); a candidate repair of the critic divergence SAC+I2A showed
+    on reacher-hard (docs/results.md, grid 4)."""
     imagination_max_ratio: float = 0.5
     """The gate keeps a transition with probability clip(1 − ratio / this, 0, 1): none from a node whose
     held-out error is at or above this fraction of the no-change error (1: the gate as first built; 0.5 chosen
@@ -708,7 +714,7 @@ _NON_NEGATIVE = (
 
 _POSITIVE_OR_NONE: tuple[str, ...] = (
     "run.episodes", "run.steps", "run.max_wall_s", "run.checkpoint_every_s", "env.fixed_positions",
-    "dual.e_max_relative", "agent.encoder_tau",
+    "dual.e_max_relative", "agent.encoder_tau", "dual.imagination_depth",
 )
 """Keys that are > 0 or None (`check_config`; the service's overrides schema reads the same tuple)."""
 

@@ -10,6 +10,7 @@ so the run it observes is the same run as without it. A rerun on the same direct
 
     OMP_NUM_THREADS=1 python scripts/i2a_imagination_probe.py \
         results/study3-reacher-hard/SAC+I2A/task/seed-1/config.yaml --seed 101 --steps 100000 --out probe-101
+    # the same with a candidate repair:   ... --set dual.imagination_depth=1 --out probe-101-depth1
 """
 
 from __future__ import annotations
@@ -69,9 +70,15 @@ def main() -> None:
     parser.add_argument("--steps", type=int, required=True)
     parser.add_argument("--out", type=Path, required=True, help="run directory; its .jsonl sits beside it")
     parser.add_argument("--every", type=int, default=500, help="updates between two records")
+    parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                        help="change one setting of the cell's config (repeatable)")
     args = parser.parse_args()
     data = yaml.safe_load(args.config.read_text())
     data["run"].update(seed=args.seed, steps=args.steps)
+    for item in args.set:
+        key, _, text = item.partition("=")
+        section, name = key.split(".")
+        data[section][name] = yaml.safe_load(text)
     config = Config.from_dict(data)
     records = args.out.with_suffix(".jsonl").open("a")
     update = base.Learner.update_with_imagination

@@ -91,13 +91,15 @@ class I2A(LearnerAgent):
         return self.learner.update_with_imagination(batch, latent)
 
     def _imagine_from(self, obs: torch.Tensor) -> LatentBatch | None:
-        """Learn-time imagination: rollouts from the minibatch's states, encoded by the current encoder."""
+        """Learn-time imagination: rollouts from the minibatch's states, encoded by the current encoder, at
+        most ``dual.imagination_depth`` (default D_max) model steps long."""
         dual = self.config.dual
         with torch.no_grad():
             phi = self.learner.encode(obs.to(self.device)).cpu()
         stop = "reliable" if self.imagination == "adaptive" else "la"
         model = RegionModels(self.dual.world, self.rng, stop=stop, la_scale=dual.imagination_prob_scale)
-        latent = imagine(phi, model, self.actor, dual.d_max, self.rng, dual.latent_batch_size)
+        depth = dual.d_max if dual.imagination_depth is None else dual.imagination_depth
+        latent = imagine(phi, model, self.actor, depth, self.rng, dual.latent_batch_size)
         self.dual.count_imagined(0 if latent is None else latent.latent.shape[0])
         return latent
 

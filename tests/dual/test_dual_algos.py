@@ -431,3 +431,25 @@ def test_i2a_imagines_at_learn_time_from_the_current_encoder_and_stores_nothing(
     first_steps = [row for row in batch.latent if any(torch.allclose(row, c, atol=1e-6) for c in current)]
     assert first_steps  # rollouts start at the minibatch's latents under the encoder as it is now
     assert agent.dual.counters.imagined >= batch.latent.shape[0]
+
+
+def test_imagination_depth_one_starts_every_imagined_transition_at_a_real_state() -> None:
+    """``dual.imagination_depth=1``: the imagined states are the minibatch's own latents, only φ̂′ is the
+    model's; without it the same trusted regions roll out past the first step."""
+    frames = torch.from_numpy(np.stack([_obs(0), _obs(1), _obs(2)]))
+    rows = {}
+    for depth in (None, 1):
+        option = [] if depth is None else [f"dual.imagination_depth={depth}"]
+        agent = _agent("i2a", "agent.learning_starts=4", *option)
+        agent.begin_episode(_obs(5))
+        for step in range(30):
+            _step(agent, _obs(step % 3))
+            agent.update_after_step()
+        agent.dual.world.heldout.trusted[:] = True
+        agent.dual.world.heldout.ratio[:] = 0.0
+        batch = agent._imagine_from(frames)
+        with torch.no_grad():
+            current = agent.learner.encode(frames)
+        rows[depth] = [any(torch.allclose(row, c, atol=1e-6) for c in current) for row in batch.latent]
+    assert all(rows[1]) and len(rows[1]) == 3
+    assert not all(rows[None])  # D_max = 6: later steps start at predicted latents

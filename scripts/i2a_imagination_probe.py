@@ -63,6 +63,30 @@ def compare(learner: base.Learner, pixel: PixelBatch, latent: LatentBatch) -> di
         }
 
 
+def summarise(path: Path, window: int = 10_000) -> list[dict[str, float]]:
+    """A probe's records averaged over windows of ``window`` updates (the largest |Q|: the maximum)."""
+    records = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    rows = []
+    for start in range(0, max(r["update"] for r in records), window):
+        part = [r for r in records if start < r["update"] <= start + window]
+        if not part:
+            continue
+
+        def mean(key: str, side: str, part: list[dict] = part) -> float:
+            return sum(r[key][side] for r in part) / len(part)
+
+        rows.append({
+            "updates": start + window,
+            "q_mean_real": mean("q_mean", "real"), "q_mean_imagined": mean("q_mean", "imagined"),
+            "q_abs_max_real": max(r["q_abs_max"]["real"] for r in part),
+            "q_abs_max_imagined": max(r["q_abs_max"]["imagined"] for r in part),
+            "td_error_real": mean("td_error", "real"), "td_error_imagined": mean("td_error", "imagined"),
+            "next_latent_outside": sum(r["next_latent_outside"] for r in part) / len(part),
+            "alpha_last": part[-1]["alpha"],
+        })
+    return rows
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("config", type=Path, help="a grid cell's config.yaml (an I2A cell)")
@@ -72,7 +96,12 @@ def main() -> None:
     parser.add_argument("--every", type=int, default=500, help="updates between two records")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
                         help="change one setting of the cell's config (repeatable)")
+    parser.add_argument("--summary", action="store_true", help="print the .jsonl by 10k updates")
     args = parser.parse_args()
+    if args.summary:
+        for row in summarise(args.out.with_suffix(".jsonl")):
+            print(json.dumps({key: round(value, 3) for key, value in row.items()}))
+        return
     data = yaml.safe_load(args.config.read_text())
     data["run"].update(seed=args.seed, steps=args.steps)
     for item in args.set:

@@ -20,9 +20,8 @@ import json
 from pathlib import Path
 
 import torch
-import yaml
 
-from core.config import Config
+from core.config import load_config
 from core.modelfree.learners import base
 from core.modelfree.replay import LatentBatch, PixelBatch
 from core.runs.trainer import train
@@ -95,20 +94,15 @@ def main() -> None:
     parser.add_argument("--out", type=Path, required=True, help="run directory; its .jsonl sits beside it")
     parser.add_argument("--every", type=int, default=500, help="updates between two records")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
-                        help="change one setting of the cell's config (repeatable)")
+                        help="change one setting of the cell's config (repeatable; the config's own parsing)")
     parser.add_argument("--summary", action="store_true", help="print the .jsonl by 10k updates")
     args = parser.parse_args()
     if args.summary:
         for row in summarise(args.out.with_suffix(".jsonl")):
             print(json.dumps({key: round(value, 3) for key, value in row.items()}))
         return
-    data = yaml.safe_load(args.config.read_text())
-    data["run"].update(seed=args.seed, steps=args.steps)
-    for item in args.set:
-        key, _, text = item.partition("=")
-        section, name = key.split(".")
-        data[section][name] = yaml.safe_load(text)
-    config = Config.from_dict(data)
+    config = load_config("default", [f"run.seed={args.seed}", f"run.steps={args.steps}", *args.set],
+                         file=args.config)
     records = args.out.with_suffix(".jsonl").open("a")
     update = base.Learner.update_with_imagination
     count = 0

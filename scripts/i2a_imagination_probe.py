@@ -37,11 +37,8 @@ def compare(learner: base.Learner, pixel: PixelBatch, latent: LatentBatch) -> di
         def outside(x: torch.Tensor) -> float:
             return float(((x < low - margin) | (x > high + margin)).any(1).float().mean())
 
-        def twin_min(q: torch.Tensor) -> torch.Tensor:
-            return q if q.dim() == 1 else q.min(0).values
-
-        q_real = twin_min(learner.critic(phi, pixel.action))
-        q_imagined = twin_min(learner.critic(latent.latent, latent.action))
+        q_real = learner.q_value(phi, pixel.action)
+        q_imagined = learner.q_value(latent.latent, latent.action)
         next_phi = learner.target_encoder(learner.encoder.prepare(pixel.next_obs))
         y_real = learner.td_target(pixel.reward, next_phi, pixel.terminated)
         y_imagined = learner.td_target(latent.reward, latent.next_latent, latent.done)

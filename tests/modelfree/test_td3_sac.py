@@ -108,6 +108,18 @@ def test_td3_steps_actor_and_targets_every_second_update_only():
         assert ("losses/actor" in losses) == (update % 2 == 0)
 
 
+@pytest.mark.parametrize("ac", ["ddpg", "td3", "sac"])
+def test_q_value_is_the_smaller_twin_and_value_of_takes_it_at_the_policys_action(ac):
+    learner = _learner(ac)
+    data = _batch()
+    phi = learner.encode(data.obs)
+    with torch.no_grad():
+        q = learner.critic(phi, data.action)
+        expected = q if ac == "ddpg" else torch.minimum(q[0], q[1])
+        assert torch.equal(learner.q_value(phi, data.action), expected)
+        assert torch.equal(learner.value_of(phi), learner.q_value(phi, learner.actor(phi)))
+
+
 def test_squashed_gaussian_log_probability_matches_torch_distributions():
     torch.manual_seed(1)
     actor = SquashedGaussianActor(5, 3, (8,), "relu")

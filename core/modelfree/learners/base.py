@@ -298,11 +298,15 @@ class Learner(nn.Module):
             soft_update(self.target_actor, self.actor, tau)
 
     @torch.no_grad()
+    def q_value(self, latent: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        """The online critic's Q(φ, a) (twins: the smaller), ``[N]``."""
+        q = self.critic(latent, action)
+        return q if q.dim() == 1 else q.min(dim=0).values
+
     def value_of(self, latent: torch.Tensor) -> torch.Tensor:
         """The critic's value of the policy's deterministic action, Q(φ, μ(φ)) (twins: the smaller), ``[N]``:
         the start-state value the trainer logs beside the discounted return actually earned."""
-        q = self.critic(latent, self.actor(latent))
-        return q if q.dim() == 1 else q.min(dim=0).values
+        return self.q_value(latent, self.actor(latent))
 
     # -- persistence -----------------------------------------------------------------------------
     def optimizers(self) -> dict[str, Any]:

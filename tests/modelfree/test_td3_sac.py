@@ -118,6 +118,12 @@ def test_q_value_is_the_smaller_twin_and_value_of_takes_it_at_the_policys_action
         expected = q if ac == "ddpg" else torch.minimum(q[0], q[1])
         assert torch.equal(learner.q_value(phi, data.action), expected)
         assert torch.equal(learner.value_of(phi), learner.q_value(phi, learner.actor(phi)))
+    # A read-out, never part of a loss: the actor's forward inside value_of builds no graph.
+    grad_on_in_actor = []
+    hook = learner.actor.register_forward_hook(lambda *_: grad_on_in_actor.append(torch.is_grad_enabled()))
+    learner.value_of(phi.detach())
+    hook.remove()
+    assert grad_on_in_actor == [False]
 
 
 def test_squashed_gaussian_log_probability_matches_torch_distributions():

@@ -303,6 +303,7 @@ class Learner(nn.Module):
         q = self.critic(latent, action)
         return q if q.dim() == 1 else q.min(dim=0).values
 
+    @torch.no_grad()
     def value_of(self, latent: torch.Tensor) -> torch.Tensor:
         """The critic's value of the policy's deterministic action, Q(φ, μ(φ)) (twins: the smaller), ``[N]``:
         the start-state value the trainer logs beside the discounted return actually earned."""

@@ -162,3 +162,29 @@ def test_bad_actions_are_clear_errors(env, action):
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action"):
         env.step(action)
+
+
+def test_on_the_full_window_the_arm_is_out_of_view_below_minus_ten_degrees():
+    """docs/environment.md, "What the camera sees of the arm": on the `paper` and `hard` levels' ±100° window the
+    image of shoulder angles from −100° to −10° is the image at −100° up to a few pixels one intensity level
+    off; the arm comes into view between −10° and 0°."""
+    environment = NicoGraspEnv(level="hard", hand="learned", max_steps=1000)
+    try:
+        environment.reset(seed=5)
+        push_down, creep_up = np.array([-1.0, -1.0], np.float32), np.array([0.25, -1.0], np.float32)
+        for _ in range(6):
+            obs, *_ = environment.step(push_down)
+        assert math.degrees(environment._shoulder_angle()) == pytest.approx(-100.0, abs=0.5)
+        out_of_view = obs.astype(int)
+        changed: dict[int, tuple[int, int]] = {}
+        while math.degrees(environment._shoulder_angle()) < 9.5:
+            obs, *_ = environment.step(creep_up)
+            difference = np.abs(obs.astype(int) - out_of_view)
+            changed[round(math.degrees(environment._shoulder_angle()))] = (int(difference.any(-1).sum()),
+                                                                           int(difference.max()))
+        hidden = [v for angle, v in changed.items() if angle <= -10]
+        seen = [v for angle, v in changed.items() if angle >= 0]
+        assert len(hidden) == 18 and all(pixels <= 3 and level <= 1 for pixels, level in hidden)
+        assert len(seen) == 3 and all(pixels >= 15 and level >= 40 for pixels, level in seen)
+    finally:
+        environment.close()

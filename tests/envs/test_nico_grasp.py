@@ -165,9 +165,9 @@ def test_bad_actions_are_clear_errors(env, action):
 
 
 def test_on_the_full_window_the_arm_is_out_of_view_below_minus_ten_degrees():
-    """docs/environment.md, "What the camera sees of the arm": on the `paper` and `hard` levels' ±100° window the
-    image of shoulder angles from −100° to −10° is the image at −100° up to a few pixels one intensity level
-    off; the arm comes into view between −10° and 0°."""
+    """docs/environment.md, "What the camera sees of the arm": on the `paper` and `hard` levels' ±100° window
+    the image of shoulder angles from −100° to −10° is the image at −100° up to a few pixels one intensity
+    level off; the arm comes into view between −10° and 0°."""
     environment = NicoGraspEnv(level="hard", hand="learned", max_steps=1000)
     try:
         environment.reset(seed=5)

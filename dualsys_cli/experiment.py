@@ -186,7 +186,7 @@ def run_command(
         "--from-archive",
         help="First copy the finished cells archived here (TO/<name> of `experiment archive`, or TO) into "
         "OUT where they have not started, so they are skipped: to go on with a grid of which only the "
-        "archive was kept.",
+        "archive was kept. A folder with nothing of this grid yet restores nothing.",
     ),
     archive_to: Path = typer.Option(
         None,

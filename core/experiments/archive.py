@@ -107,11 +107,16 @@ def restore_archive(archive: Path | str, spec: ExperimentSpec, out: Path | str) 
     """Copy the done cells of ``spec`` archived in ``archive`` (``DEST/<name>`` or ``DEST``) into
     ``out/<name>`` wherever that cell has not started (neither done nor resumable there); returns their keys.
 
-    A later run into ``out`` then skips them. All or nothing: raises :class:`ExperimentError`, copying
-    nothing, when the archive is of another grid (:func:`merge_pieces`) or one of its cells ran with
-    settings ``spec`` no longer gives (the check a resumed cell gets, :func:`~core.experiments.cells.
-    settings_conflict`)."""
-    source = _archive_dir(Path(archive), spec.name)
+    A later run into ``out`` then skips them. An existing folder that holds no archive of ``spec`` yet
+    restores nothing, so one command (``--from-archive R --archive-to R``) serves a grid's first day and every
+    later one; a folder that does not exist is an error (a mistyped path). All or nothing: raises
+    :class:`ExperimentError`, copying nothing, when the archive is of another grid (:func:`merge_pieces`) or
+    one of its cells ran with settings ``spec`` no longer gives (the check a resumed cell gets,
+    :func:`~core.experiments.cells.settings_conflict`)."""
+    archive = Path(archive)
+    if archive.is_dir() and not any((c / EXPERIMENT_FILE).is_file() for c in (archive, archive / spec.name)):
+        return ()
+    source = _archive_dir(archive, spec.name)
     merge_pieces(read_experiment(source / EXPERIMENT_FILE), spec)
     pending: list[tuple[Path, Path]] = []
     keys: list[str] = []

@@ -105,6 +105,9 @@ def test_a_grid_goes_on_from_its_archive_alone(tmp_path: Path, write_experiment)
     args = ["experiment", "run", str(whole), "--from-archive", str(tmp_path / "no")]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 2 and "no archive of 'tiny'" in result.stderr
+    (tmp_path / "empty").mkdir()  # a folder with nothing of this grid yet: its first day, nothing restored
+    assert restore_archive(tmp_path / "empty", load_experiment(whole), tmp_path / "day5") == ()
+    assert not (tmp_path / "day5").exists()
     day4 = ["experiment", "run", str(other_grid), "--out", str(tmp_path / "day4"), "--archive-to", results]
     result = CliRunner().invoke(app, day4)  # refused before any cell trains
     assert result.exit_code == 2 and "steps=100" in result.stderr

@@ -47,6 +47,11 @@ from core.envs.nico_grasp import NicoGraspEnv
 from core.runs.trainer import train
 
 VARIANTS = ("none", "zero_change_head")
+COLUMNS = ("error", "no_change_error", "latent_part", "reward_part", "predicted_change", "true_change",
+           "node_age", "run_error", "run_no_change_error", "scale_s", "angle", "next_angle")
+"""One row per replayed transition: its Eq. 8 error before the update, the no-change predictor's, the error's
+latent and reward parts, ‖φ̂′ − φ‖ and ‖φ′ − φ‖, the node's Adam steps, the recorded run's two errors, the
+models' unit s, and the shoulder angle before and after (degrees)."""
 OUT_OF_VIEW_DEG = -7.0
 """Below this shoulder angle the grasp's camera does not see the arm (docs/environment.md, "What the camera
 sees of the arm": the same image from −100° to about −10°)."""
@@ -146,12 +151,13 @@ def replay(out: Path, overrides: list[str], variant: str) -> dict[str, Any]:
             rows.append((feedback.error, naive, latent_part, reward_part,
                          float((before.next_latent[0] - phi).norm()), float((next_phi - phi).norm()),
                          age, run_error, run_naive, float(world.bank.latent_scale), angle, next_angle))
+
         elif world.config.refit_every:
             latents, action, reward, terminated = payload
             count = action.shape[0]
             world.refit(latents[:count], action, reward, latents[count:], terminated)
     table = np.array(rows)
-    return summarise(table, exact)
+    return summarise({name: table[:, i] for i, name in enumerate(COLUMNS)}, exact)
 
 
 def with_overrides(dual: DualConfig, overrides: list[str]) -> DualConfig:
@@ -168,19 +174,24 @@ def with_overrides(dual: DualConfig, overrides: list[str]) -> DualConfig:
     return replace(dual, **changes)
 
 
-def summarise(table: np.ndarray, exact: bool) -> dict[str, Any]:
-    error, naive, latent, reward, predicted, true, age = (table[:, i] for i in range(7))
-    half = len(table) // 2
+def summarise(col: dict[str, np.ndarray], exact: bool) -> dict[str, Any]:
+    """The replayed transitions' figures over the late half (``col``: one array per name of `COLUMNS`)."""
+    error, naive = col["error"], col["no_change_error"]
+    latent, reward = col["latent_part"], col["reward_part"]
+    predicted, true, age = col["predicted_change"], col["true_change"], col["node_age"]
+    angle, next_angle = col["angle"], col["next_angle"]
+    count = len(error)
+    half = count // 2
     late = slice(half, None)
     young = age < 50
-    index = np.arange(len(table))
-    in_view = (table[:, 10] >= OUT_OF_VIEW_DEG) & (table[:, 11] >= OUT_OF_VIEW_DEG)
+    index = np.arange(count)
+    in_view = (angle >= OUT_OF_VIEW_DEG) & (next_angle >= OUT_OF_VIEW_DEG)
 
     def ratio(part: slice | np.ndarray) -> float:
         return float(error[part].mean() / naive[part].mean())
 
     result: dict[str, Any] = {
-        "transitions": len(table),
+        "transitions": count,
         "ratio_all": ratio(slice(None)), "ratio_late_half": ratio(late),
         "late": {
             "model_error": float(error[late].mean()), "no_change_error": float(naive[late].mean()),
@@ -190,23 +201,24 @@ def summarise(table: np.ndarray, exact: bool) -> dict[str, Any]:
             "share_young_nodes": float(young[late].mean()),
             "ratio_young": ratio(np.where(young & (index >= half))[0]),
             "ratio_old": ratio(np.where(~young & (index >= half))[0]),
-            "scale_s": float(table[late, 9].mean()),
+            "scale_s": float(col["scale_s"][late].mean()),
             "share_still": float((true[late] == 0).mean()),
             "ratio_still": ratio(np.where((true == 0) & (index >= half))[0]),
             "ratio_moving": ratio(np.where((true > 0) & (index >= half))[0]),
             "model_error_still": float(error[late][true[late] == 0].mean()),
             "predicted_change_norm_still": float(np.median(predicted[late][true[late] == 0])),
-            "still_with_arm_out_of_view": float(np.mean(np.maximum(table[late, 10], table[late, 11])
-                                                        [true[late] == 0] < OUT_OF_VIEW_DEG)),
-            "still_at_window_edge": float(np.mean(np.minimum(np.abs(table[late, 10]), np.abs(table[late, 11]))
+            "still_with_arm_out_of_view": float(np.mean(np.maximum(angle, next_angle)[late][true[late] == 0]
+                                                        < OUT_OF_VIEW_DEG)),
+            "still_at_window_edge": float(np.mean(np.minimum(np.abs(angle), np.abs(next_angle))[late]
                                                   [true[late] == 0] > 99.5)),
-            "moving_from_out_of_view": float(np.mean(table[late, 10][true[late] > 0] < OUT_OF_VIEW_DEG)),
+            "moving_from_out_of_view": float(np.mean(angle[late][true[late] > 0] < OUT_OF_VIEW_DEG)),
             "ratio_moving_in_view": ratio(np.where((true > 0) & (index >= half) & in_view)[0]),
         },
     }
     if exact:
-        result["reproduces_run"] = bool(np.allclose(error, table[:, 7], rtol=1e-5, atol=1e-7)
-                                        and np.allclose(naive, table[:, 8], rtol=1e-5, atol=1e-7))
+        same = [np.allclose(mine, run, rtol=1e-5, atol=1e-7)
+                for mine, run in ((error, col["run_error"]), (naive, col["run_no_change_error"]))]
+        result["reproduces_run"] = all(same)
     return result
 
 

@@ -114,9 +114,12 @@ def restore_archive(archive: Path | str, spec: ExperimentSpec, out: Path | str) 
     one of its cells ran with settings ``spec`` no longer gives (the check a resumed cell gets,
     :func:`~core.experiments.cells.settings_conflict`)."""
     archive = Path(archive)
-    if archive.is_dir() and not any((c / EXPERIMENT_FILE).is_file() for c in (archive, archive / spec.name)):
-        return ()
     source = _archive_dir(archive, spec.name)
+    if source is None:
+        if archive.is_dir():
+            return ()
+        raise ExperimentError(f"no archive of {spec.name!r} in {archive} (neither {archive} nor "
+                              f"{archive / spec.name} holds one)")
     merge_pieces(read_experiment(source / EXPERIMENT_FILE), spec)
     pending: list[tuple[Path, Path]] = []
     keys: list[str] = []
@@ -140,9 +143,9 @@ def restore_archive(archive: Path | str, spec: ExperimentSpec, out: Path | str) 
     return tuple(keys)
 
 
-def _archive_dir(path: Path, name: str) -> Path:
-    """``path`` if it is an archive of the experiment ``name``, else ``path/name``."""
+def _archive_dir(path: Path, name: str) -> Path | None:
+    """``path`` if it is an archive of the experiment ``name``, else ``path/name`` if that is; else None."""
     for candidate in (path, path / name):
         if (candidate / EXPERIMENT_FILE).is_file():
             return candidate
-    raise ExperimentError(f"no archive of {name!r} in {path} (neither {path} nor {path / name} holds one)")
+    return None

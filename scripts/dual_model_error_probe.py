@@ -33,14 +33,13 @@ import argparse
 import json
 import math
 import pickle
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
 
-from core.config import DualConfig, load_config
+from core.config import load_config
 from core.dual.dual_system import DualSystem
 from core.dual.world_models import LocalWorldModels
 from core.envs.nico_grasp import NicoGraspEnv
@@ -99,7 +98,7 @@ def record(config_path: Path, seed: int, steps: int, out: Path, overrides: list[
     NicoGraspEnv.step = step_recorded
     summary = train(config, out, command="dual model error probe")
     with (out / "stream.pkl").open("wb") as f:
-        pickle.dump({**initial, "dual": config.dual, "events": events}, f)
+        pickle.dump({**initial, "events": events}, f)
     print(summary)
 
 
@@ -125,7 +124,9 @@ def replay(out: Path, overrides: list[str], variant: str) -> dict[str, Any]:
     with (out / "stream.pkl").open("rb") as f:
         stream = pickle.load(f)
     exact = not overrides and variant == "none"
-    world = LocalWorldModels(with_overrides(stream["dual"], overrides), stream["latent_dim"],
+    # The run's own config.yaml (written by `train`), the variant's changes parsed as the CLI parses them.
+    dual = load_config("default", overrides, file=out / "config.yaml").dual
+    world = LocalWorldModels(dual, stream["latent_dim"],
                              stream["action_dim"], regions=stream["regions"],
                              generator=torch.Generator().manual_seed(stream["seed"]))
     if variant == "zero_change_head":
@@ -140,12 +141,14 @@ def replay(out: Path, overrides: list[str], variant: str) -> dict[str, Any]:
             next_phi, action, reward, terminated, run_error, run_naive, angle, next_angle = payload
             a = torch.as_tensor(action).reshape(1, -1)
             before = world.bank.predict(torch.tensor([node]), phi.reshape(1, -1), a)
-            d_latent = before.next_latent - next_phi
-            d_reward = before.reward - reward
-            latent_part = float(world.bank._error(d_latent, torch.zeros_like(d_reward))[0])
-            reward_part = float(world.bank._error(torch.zeros_like(d_latent), d_reward)[0])
-            naive = float(world.bank.errors(phi.reshape(1, -1), torch.zeros(1), next_phi.reshape(1, -1),
-                                            torch.tensor([reward]))[0])
+            target_latent, target_reward = next_phi.reshape(1, -1), torch.tensor([float(reward)])
+            # Eq. 8 with one side exact: the latent part (true reward) and the reward part (true latent).
+            latent_part = float(world.bank.errors(before.next_latent, target_reward, target_latent,
+                                                  target_reward)[0])
+            reward_part = float(world.bank.errors(target_latent, before.reward, target_latent,
+                                                  target_reward)[0])
+            no_change = (phi.reshape(1, -1), torch.zeros(1))  # φ̂′ = φ, r̂ = 0
+            naive = float(world.bank.errors(*no_change, target_latent, target_reward)[0])
             age = int(world.bank.steps[node])
             feedback = world.learn_transition(node, phi, a, reward, next_phi, terminated)
             rows.append((feedback.error, naive, latent_part, reward_part,
@@ -158,20 +161,6 @@ def replay(out: Path, overrides: list[str], variant: str) -> dict[str, Any]:
             world.refit(latents[:count], action, reward, latents[count:], terminated)
     table = np.array(rows)
     return summarise({name: table[:, i] for i, name in enumerate(COLUMNS)}, exact)
-
-
-def with_overrides(dual: DualConfig, overrides: list[str]) -> DualConfig:
-    """``dual`` with ``dual.KEY=VALUE`` changes, each value parsed as the type of the key's current value."""
-    changes: dict[str, Any] = {}
-    for item in overrides:
-        key, value = item.split("=", 1)
-        key = key.removeprefix("dual.")
-        current = getattr(dual, key)
-        if isinstance(current, bool):
-            changes[key] = value.lower() in ("1", "true", "yes")
-        else:
-            changes[key] = value if current is None else type(current)(value)
-    return replace(dual, **changes)
 
 
 def summarise(col: dict[str, np.ndarray], exact: bool) -> dict[str, Any]:

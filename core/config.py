@@ -155,6 +155,14 @@ class NetConfig:
     """Vector observations only. bounds: each dimension with finite bounds is mapped to [-1, 1] before the
     encoder (or, with ``encoder = none``, before the MLP heads); none: the raw observation, as SB3 and CleanRL
     feed it (the parity checks against SB3 set it). Images are always uint8 / 255."""
+    sac_log_prob: Literal["exact", "sb3"] = "exact"
+    """SAC only: the arithmetic of log π(a | φ) = log N(u; m, σ) − Σ log(1 − tanh(u)²) (Haarnoja et al. 2018,
+    Eq. 21). exact: the Gaussian term from the drawn ε (−ε²/2 − log σ − log √2π) and the correction as
+    2 (log 2 − u − softplus(−2u)); sb3: Stable-Baselines3's (and the SAC authors') arithmetic,
+    ``Normal(m, σ).log_prob(u)`` − Σ log(1 − tanh(u)² + 10⁻⁶). The two are the same function; sb3's loses
+    precision in u − m when σ is small (10⁻³ nats at log σ ∈ [−8, −3]) and floors the correction, so runs on
+    the same draws part within a few hundred updates. sb3 exists for the step-by-step parity test against SB3
+    (docs/model-free.md, "Learners")."""
 
 
 @dataclass

@@ -291,8 +291,11 @@ def head_sizes(config: NetConfig, spec: EnvSpec) -> tuple[tuple[int, ...], tuple
 def make_actor(config: NetConfig, spec: EnvSpec, ac: str, latent_dim: int) -> Actor:
     """The actor of actor-critic ``ac``: deterministic μ(φ) (DDPG, CACLA, TD3) or squashed Gaussian (SAC)."""
     hidden, _ = head_sizes(config, spec)
-    cls = SquashedGaussianActor if ac == "sac" else Actor
-    return cls(latent_dim, spec.action_dim, hidden, config.actor_activation)
+    if ac == "sac":
+        return SquashedGaussianActor(
+            latent_dim, spec.action_dim, hidden, config.actor_activation, config.sac_log_prob
+        )
+    return Actor(latent_dim, spec.action_dim, hidden, config.actor_activation)
 
 
 class Actor(nn.Module):
@@ -310,6 +313,8 @@ class Actor(nn.Module):
 
 LOG_STD_MIN, LOG_STD_MAX = -20.0, 2.0
 """Bounds of the Gaussian's log standard deviation (SB3's and SAC's reference implementation)."""
+SB3_SQUASH_EPSILON = 1e-6
+"""SB3's floor inside log(1 − tanh(u)² + ε) (``sac_log_prob = sb3``)."""
 
 
 class SquashedGaussianActor(Actor):
@@ -319,9 +324,17 @@ class SquashedGaussianActor(Actor):
     ``sample`` draws a ~ π with its log-probability (the change of variables of the tanh squashing).
     """
 
-    def __init__(self, latent_dim: int, action_dim: int, hidden: tuple[int, ...], activation: str) -> None:
+    def __init__(
+        self,
+        latent_dim: int,
+        action_dim: int,
+        hidden: tuple[int, ...],
+        activation: str,
+        log_prob: str = "exact",
+    ) -> None:
         nn.Module.__init__(self)
         layer = nn.Tanh if activation == "tanh" else nn.ReLU
+        self.log_prob_arithmetic = log_prob
         self.trunk = nn.Sequential(*mlp([latent_dim, *hidden], layer), layer())
         self.mean = nn.Linear(hidden[-1], action_dim)
         self.log_std = nn.Linear(hidden[-1], action_dim)
@@ -339,13 +352,18 @@ class SquashedGaussianActor(Actor):
         self, latent: torch.Tensor, noise: torch.Tensor | None = None
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """a = tanh(m + σ ε) with ε ~ N(0, I) (or ``noise``), and log π(a | φ) ``[N]``:
-        log N(u; m, σ) − Σ log(1 − tanh(u)²), the last term as 2 (log 2 − u − softplus(−2u)) for stability."""
+        log N(u; m, σ) − Σ log(1 − tanh(u)²) (Eq. 21 of Haarnoja et al. 2018), the last term as
+        2 (log 2 − u − softplus(−2u)) for stability; or in SB3's arithmetic (``NetConfig.sac_log_prob``)."""
         mean, log_std = self.distribution(latent)
         eps = torch.randn_like(mean) if noise is None else noise
         u = mean + log_std.exp() * eps
+        action = torch.tanh(u)
+        if self.log_prob_arithmetic == "sb3":
+            gaussian = torch.distributions.Normal(mean, log_std.exp()).log_prob(u).sum(dim=1)
+            return action, gaussian - torch.log(1 - action.pow(2) + SB3_SQUASH_EPSILON).sum(dim=1)
         gaussian = (-0.5 * eps.pow(2) - log_std - 0.5 * math.log(2 * math.pi)).sum(dim=1)
         squash = (2 * (math.log(2.0) - u - nn.functional.softplus(-2 * u))).sum(dim=1)
-        return torch.tanh(u), gaussian - squash
+        return action, gaussian - squash
 
 
 class ActionBounds(nn.Module):

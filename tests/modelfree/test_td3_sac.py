@@ -144,6 +144,34 @@ def test_squashed_gaussian_log_probability_matches_torch_distributions():
     torch.testing.assert_close(actor(latent), torch.tanh(mean))  # the deployed action is deterministic
 
 
+def test_sb3_log_probability_arithmetic_is_the_same_function_floored_where_the_action_saturates():
+    """``net.sac_log_prob = sb3``: SB3's Normal(m, σ).log_prob(u) − Σ log(1 − tanh(u)² + 10⁻⁶). Equal to the
+    exact arithmetic away from saturation; where tanh(u) rounds to ±1 the exact one keeps counting
+    −log(1 − tanh²) ≈ 2|u| − 2 log 2 and SB3's stops at log 10⁶ per dimension."""
+    torch.manual_seed(2)
+    exact = SquashedGaussianActor(5, 2, (8,), "relu")
+    sb3 = SquashedGaussianActor(5, 2, (8,), "relu", log_prob="sb3")
+    sb3.load_state_dict(exact.state_dict())
+    latent, eps = torch.randn(256, 5), torch.randn(256, 2)
+    (a_exact, lp_exact), (a_sb3, lp_sb3) = exact.sample(latent, eps), sb3.sample(latent, eps)
+    torch.testing.assert_close(a_sb3, a_exact)
+    moderate = a_exact.abs().max(dim=1).values < 0.99
+    assert moderate.sum() > 200
+    torch.testing.assert_close(lp_sb3[moderate], lp_exact[moderate], atol=1e-4, rtol=1e-4)
+    with torch.no_grad():  # m = 12, σ = e⁻²⁰ and ε = 0: u = 12, where tanh(u) is 1 in float32
+        for actor in (exact, sb3):
+            actor.mean.weight.zero_()
+            actor.mean.bias.fill_(12.0)
+            actor.log_std.weight.zero_()
+            actor.log_std.bias.fill_(-20.0)
+    _, far_exact = exact.sample(latent[:1], torch.zeros(1, 2))
+    _, far_sb3 = sb3.sample(latent[:1], torch.zeros(1, 2))
+    gaussian = 2 * (20.0 - 0.5 * np.log(2 * np.pi))
+    correction = 2 * (2 * 12.0 - 2 * np.log(2.0))
+    assert far_exact.item() == pytest.approx(gaussian + correction, rel=1e-4)
+    assert far_sb3.item() == pytest.approx(gaussian - 2 * np.log(1e-6), rel=1e-4)
+
+
 def test_sac_target_is_the_soft_value_of_the_smaller_target_critic():
     learner = _learner("sac", "agent.alpha_init=0.5")
     data, phi, got = _target_at_seed(learner, 3)

@@ -5,9 +5,9 @@ uniform warm-up, the exploration noise on top of it, what goes into the replay (
 observation at a time-limit truncation, the done flag), when the first update happens, the policy delay's
 phase across updates, and the episode resets. SB3's DDPG, TD3 and SAC run 320 env steps of Pendulum-v1 (one
 truncated episode and part of the next), and SB3's SAC 1 100 steps of dm_control's reacher-hard (the task of
-study 3's grid 4: a 6-D unbounded observation, 2-D action, a truncation at 1 000), while their random draws
-are recorded: the warm-up actions
-(``action_space.sample``), the action noise (DDPG, TD3), SAC's exploration draws and the minibatch indices.
+study 3's grid 4: a 6-D unbounded observation, on which our scaling is the identity, a 2-D action and a
+truncation at 1 000), while their random draws are recorded: the warm-up actions (``action_space.sample``),
+the action noise (DDPG, TD3), SAC's exploration draws and the minibatch indices.
 Our agent then runs the loop the trainer runs (``core.runs.trainer._Trainer._train_episode``'s calls, in its
 order) from SB3's initial weights, with a generator that hands it SB3's draws in turn. TD3's target smoothing
 draws match through a shared torch seed; SAC's update draws (torch, where its exploration draws from the

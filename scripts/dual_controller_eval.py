@@ -8,7 +8,7 @@ learner, the world models and the ITM regions) and evaluates, on the trainer's e
 (``EVAL_SEED + k``), both
 
 * ``actor``: the deployed policy, as the run's own evaluation (its return must equal the run's final
-  ``eval/return``; checked and printed), and
+  ``eval/return``: ``reproduces_run`` says whether it does), and
 * ``controller``: lines 10-19 without line 20's exploration (the meta-controller's action, planned where it
   arbitrates model-based). Arbitration keeps its own rules (its draws, if any, come from the agent's
   generator), and locating may add ITM nodes, as in training; nothing of it is written back.
@@ -52,7 +52,6 @@ class Controller:
 
 def evaluate_run(run_dir: Path, episodes: int) -> dict[str, Any]:
     config = load_config("default", file=run_dir / "config.yaml")
-    torch.set_num_threads(1)
     torch.manual_seed(config.run.seed)
     adapted = make_env(config.env)
     agent = make_agent(config, adapted.spec, np.random.default_rng(config.run.seed))
@@ -63,9 +62,9 @@ def evaluate_run(run_dir: Path, episodes: int) -> dict[str, Any]:
     rule = config.env.success
     actor = evaluate(agent, eval_env, episodes, success_rule=rule)["eval/return"]
     controller = evaluate(Controller(agent), eval_env, episodes, success_rule=rule)["eval/return"]
-    summary = json.loads((run_dir / "summary.json").read_text())
-    return {"run": str(run_dir), "actor": actor, "controller": controller,
-            "run_eval_return": summary["eval_return"]}
+    run_eval_return = json.loads((run_dir / "summary.json").read_text())["eval_return"]
+    return {"run": str(run_dir), "actor": actor, "controller": controller, "run_eval_return": run_eval_return,
+            "reproduces_run": abs(actor - run_eval_return) <= 1e-6}
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -74,6 +73,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--json", type=Path, default=None, help="write the results here as well")
     args = parser.parse_args(argv)
+    torch.set_num_threads(1)
     results = []
     for run_dir in args.runs:
         result = evaluate_run(run_dir, args.episodes)

@@ -154,7 +154,6 @@ def replay(out: Path, overrides: list[str], variant: str) -> dict[str, Any]:
             rows.append((feedback.error, naive, latent_part, reward_part,
                          float((before.next_latent[0] - phi).norm()), float((next_phi - phi).norm()),
                          age, run_error, run_naive, float(world.bank.latent_scale), angle, next_angle))
-
         elif world.config.refit_every:
             latents, action, reward, terminated = payload
             count = action.shape[0]

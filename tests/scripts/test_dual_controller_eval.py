@@ -31,7 +31,7 @@ def test_rebuilt_actor_reproduces_the_runs_final_greedy_return(tmp_path):
     summary = train(config, tmp_path / "run", command="test")
     result = _script().evaluate_run(tmp_path / "run", episodes=2)
     assert result["actor"] == pytest.approx(summary["eval_return"], abs=1e-6)
-    assert result["run_eval_return"] == summary["eval_return"]
+    assert result["run_eval_return"] == summary["eval_return"] and result["reproduces_run"]
     assert math.isfinite(result["controller"])
 
 

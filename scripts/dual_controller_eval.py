@@ -55,9 +55,9 @@ def evaluate_run(run_dir: Path, episodes: int) -> dict[str, Any]:
     torch.manual_seed(config.run.seed)
     adapted = make_env(config.env)
     agent = make_agent(config, adapted.spec, np.random.default_rng(config.run.seed))
-    agent.load_state_dict(load_checkpoint(run_dir / "checkpoints" / "latest.pt")["agent"])
     if not hasattr(agent, "dual"):
         raise SystemExit(f"{run_dir}: {config.run.algo} has no dual system")
+    agent.load_state_dict(load_checkpoint(run_dir / "checkpoints" / "latest.pt")["agent"])
     eval_env = make_env(config.env, evaluation=True).env
     rule = config.env.success
     actor = evaluate(agent, eval_env, episodes, success_rule=rule)["eval/return"]

@@ -31,6 +31,10 @@ Scores of one finished cell, from its run directory:
   ``VALUE_GAP_EVALS`` of them (``eval/start_value`` − ``eval/discounted_return``): the critic's value of the
   evaluation starts at the greedy action against what the greedy policy earned from them. For a deterministic
   learner this is exactly the return Q(s₀, μ(s₀)) estimates (SAC's soft Q values its stochastic policy).
+* ``planner_share`` — a diagnostic of the dual-system methods: the share of the training steps whose action
+  the arbitration gave the model-based system (Alg. 2 lines 9-19: ``dual/mb_decisions`` over
+  ``dual/mb_decisions`` + ``dual/mf_decisions``, summed over all training episodes); NaN for a run without
+  those columns (the model-free methods, RND).
 
 Measures a file lists under ``episode_measures`` (metrics.csv columns an env writes per episode, e.g. the
 noisy TV's ``env/noise_share``) are scores too: per cell, the column's mean over the second half of the
@@ -75,17 +79,19 @@ METRICS: dict[str, str] = {
     "best_eval_return": "Best greedy return",
     "value_gap": "Start value − discounted return",
     "greedy_value_gap": "Greedy start value − discounted return",
+    "planner_share": "Planner share of training steps",
 }
 """Reported scores and their table names."""
 BOOTSTRAPPED = (
     "auc", "final_perf", "train_success", "success", "eval_return", "first_success", "train_length",
-    "best_eval_return", "value_gap", "greedy_value_gap",
+    "best_eval_return", "value_gap", "greedy_value_gap", "planner_share",
 )
 """Scores with their own bootstrap (``auc_from_minus1`` is an affine map of ``auc``)."""
 FIRST_RETURN_GOAL = "first_return_goal"
 """The score key of the env step of the first greedy return ≥ the file's ``return_goal``."""
 DIAGNOSTICS = (
-    "first_success", "train_length", "best_eval_return", "value_gap", "greedy_value_gap", FIRST_RETURN_GOAL,
+    "first_success", "train_length", "best_eval_return", "value_gap", "greedy_value_gap", "planner_share",
+    FIRST_RETURN_GOAL,
 )
 """Reported with IQM and CI, but neither better when higher nor compared with the baseline."""
 
@@ -163,6 +169,14 @@ def _second_half_mean(values: np.ndarray | None) -> float:
     return _finite_mean(values[len(values) // 2 :])
 
 
+def _planner_share(model_based: np.ndarray | None, model_free: np.ndarray | None) -> float:
+    """Share of the logged decisions the model-based system made (NaN: unlogged, or no decision)."""
+    if model_based is None or model_free is None:
+        return math.nan
+    total = np.nansum(model_based) + np.nansum(model_free)
+    return float(np.nansum(model_based) / total) if total > 0 else math.nan
+
+
 def _first_reaching(steps: list[float], values: np.ndarray | None, goal: float) -> float | None:
     """The step of the first finite value ≥ ``goal`` (None: no such value)."""
     if values is None:
@@ -228,6 +242,8 @@ def read_cell(
             "value_gap": _value_gap(start_values, discounted, VALUE_GAP_EPISODES),
             "greedy_value_gap": _value_gap(_column(rows, "eval/start_value"),
                                            _column(rows, "eval/discounted_return"), VALUE_GAP_EVALS),
+            "planner_share": _planner_share(_column(rows, "dual/mb_decisions"),
+                                            _column(rows, "dual/mf_decisions")),
             **{measure: _second_half_mean(_column(rows, measure)) for measure in measures},
             **goal_scores,
         },
@@ -611,6 +627,8 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "episodes, the critic's value of the start state minus the discounted return the episode earned; "
         "persistently positive is overestimation (empty for runs that do not log it). "
         "Per seed over training: `value_traces.png`.",
+        "- **Planner share of training steps** (diagnostic, dual-system methods): the share of the training "
+        "steps whose action the arbitration gave the model-based system (empty for the other methods).",
         *(
             [f"- **{', '.join(f'`{m}`' for m in spec.episode_measures)}**: the env's own per-episode "
              "measures (metrics.csv columns), per run the mean over the second half of its training "

@@ -203,8 +203,8 @@ def test_learning_curves_share_an_env_step_grid(made_up: Path) -> None:
 def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> None:
     """Best greedy return is the best of the periodic and final evaluations; the value gap is the mean of
     start value − discounted return over the last 10 training episodes (the greedy one: over the last 3
-    greedy evaluations); runs without those columns give none; all are diagnostics, never compared with a
-    baseline."""
+    greedy evaluations); the planner share is the model-based decisions over all decisions of the run; runs
+    without those columns give none; all are diagnostics, never compared with a baseline."""
     root = tmp_path / "diag"
     root.mkdir()
     spec = {"name": "diag", "rewards": ["sparse"], "seeds": [0, 1], "steps": 100,
@@ -219,7 +219,8 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
             writer = csv.writer(file)
             writer.writerow(["episode", "global_step", "charts/episodic_return", "charts/success",
                              "eval/return", "charts/start_value", "charts/discounted_return",
-                             "env/noise_share", "eval/start_value", "eval/discounted_return"])
+                             "env/noise_share", "eval/start_value", "eval/discounted_return",
+                             "dual/mb_decisions", "dual/mf_decisions"])
             for episode in range(1, 21):
                 found = 90.0 + seed if episode == 10 else ""  # a greedy 90 (seed 1: 91) mid-run, then lost
                 value = 100.0 if episode > 10 else 1.0  # the critic's value climbs in the last 10 episodes
@@ -228,8 +229,10 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
                 evaluated = episode % 4 == 0
                 greedy_value = 50.0 + episode // 4 if evaluated else ""
                 greedy_earned = 40.0 if evaluated else ""
+                # the planner decides 3 of 4 steps early, then 1 of 4 (seed 0) or 1 of 5 (seed 1)
+                planned, unplanned = (3, 1) if episode <= 10 else (1, 3 + seed)
                 writer.writerow([episode, 5 * episode, 0.0, 0, found, value, 40.0 - seed, noise,
-                                 greedy_value, greedy_earned])
+                                 greedy_value, greedy_earned, planned, unplanned])
     report = build_report(root)
     m, b = report["methods"]["M"]["sparse"], report["methods"]["B"]["sparse"]
     assert m["best_eval_return"]["mean"] == pytest.approx(90.5)  # periodic 90 / 91 beat the final 5.0
@@ -240,6 +243,8 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
     assert m["greedy_value_gap"]["mean"] == pytest.approx(np.mean([13, 14, 15]))  # the last 3 evaluations
     assert b["greedy_value_gap"]["n"] == 0 and "greedy_value_gap" not in m["prob_improvement"]
     assert "value_gap" not in m["prob_improvement"] and "best_eval_return" not in m["prob_improvement"]
+    assert m["planner_share"]["mean"] == pytest.approx(np.mean([40 / 80, 40 / 90]))  # summed over the run
+    assert b["planner_share"]["n"] == 0 and "planner_share" not in m["prob_improvement"]
     # An episode measure: the mean of its second half per run, compared with the baseline where B has it
     assert m["env/noise_share"]["mean"] == pytest.approx(0.05) and m["env/noise_share"]["n"] == 2
     assert b["env/noise_share"]["n"] == 0

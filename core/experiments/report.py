@@ -32,7 +32,7 @@ Scores of one finished cell, from its run directory:
   evaluation starts at the greedy action against what the greedy policy earned from them. For a deterministic
   learner this is exactly the return Q(s₀, μ(s₀)) estimates (SAC's soft Q values its stochastic policy).
 * ``planner_share`` — a diagnostic of the dual-system methods: the share of the training steps whose action
-  the arbitration gave the model-based system (Alg. 2 lines 9-19: ``dual/mb_decisions`` over
+  the arbitration gave the model-based system (Alg. 2 lines 12-19: ``dual/mb_decisions`` over
   ``dual/mb_decisions`` + ``dual/mf_decisions``, summed over all training episodes); NaN for a run without
   those columns (the model-free methods, RND).
 
@@ -173,8 +173,9 @@ def _planner_share(model_based: np.ndarray | None, model_free: np.ndarray | None
     """Share of the logged decisions the model-based system made (NaN: unlogged, or no decision)."""
     if model_based is None or model_free is None:
         return math.nan
-    total = np.nansum(model_based) + np.nansum(model_free)
-    return float(np.nansum(model_based) / total) if total > 0 else math.nan
+    planned = np.nansum(model_based)
+    total = planned + np.nansum(model_free)
+    return float(planned / total) if total > 0 else math.nan
 
 
 def _first_reaching(steps: list[float], values: np.ndarray | None, goal: float) -> float | None:

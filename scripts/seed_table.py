@@ -18,15 +18,15 @@ goal at all in training, and when. This prints, from the same cells the report r
 
 from __future__ import annotations
 
-import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import typer
 
+from core.experiments.cells import cell_dir, read_summary
 from core.experiments.report import FIRST_RETURN_GOAL, CellRecord, baselines, collect, peers
+from core.experiments.spec import ExperimentSpec
 from core.experiments.statistics import probability_of_improvement, score_summary
 
 
@@ -59,8 +59,23 @@ def _seed_cell(record: CellRecord, goal: float) -> str:
 
 def _wall_minutes(root: Path, record: CellRecord) -> float:
     """The cell's training wall time in minutes of one core (summary.json's ``wall_s``)."""
-    summary = root / record.label / record.reward / f"seed-{record.seed}" / "summary.json"
-    return float(json.loads(summary.read_text()).get("wall_s") or math.nan) / 60.0
+    summary = read_summary(cell_dir(root, record.label, record.reward, record.seed)) or {}
+    return float(summary.get("wall_s") or math.nan) / 60.0
+
+
+def _goal(spec: ExperimentSpec) -> float:
+    """The file's ``return_goal``, else 90 (MountainCar's)."""
+    return spec.return_goal if spec.return_goal is not None else 90.0
+
+
+def _kept(cells: list[CellRecord], goal: float) -> str:
+    """``k of n``: the runs whose final greedy return is at least ``goal``."""
+    return f"{sum(r.scores['eval_return'] >= goal for r in cells)} of {len(cells)}"
+
+
+def _by_label(spec: ExperimentSpec, records: list[CellRecord]) -> dict[str, list[CellRecord]]:
+    """The finished cells of each method, in the file's order of methods."""
+    return {m.label: [r for r in records if r.label == m.label] for m in spec.methods}
 
 
 COLUMNS = (
@@ -70,14 +85,14 @@ COLUMNS = (
 """The columns of the per-method table, the keys of :func:`method_rows`' rows."""
 
 
-def method_rows(directory: Path | str) -> dict[str, dict[str, str]]:
-    """One row per method with finished cells, keyed by :data:`COLUMNS`, each value as printed.
+def method_rows(spec: ExperimentSpec, root: Path, records: list[CellRecord]) -> dict[str, dict[str, str]]:
+    """One row per method with finished cells (``collect``'s spec, folder and records), keyed by
+    :data:`COLUMNS`, each value as printed.
 
     Greedy success is what the P values compare (the goal counts are about success, and success is the
     report's score of this task); a run is *kept* when its final greedy return is at least ``return_goal``."""
-    spec, root, records, _ = collect(directory)
-    goal = spec.return_goal if spec.return_goal is not None else 90.0
-    by_label = {m.label: [r for r in records if r.label == m.label] for m in spec.methods}
+    goal = _goal(spec)
+    by_label = _by_label(spec, records)
     base, peer = baselines(spec, records), peers(spec, records)
     rows: dict[str, dict[str, str]] = {}
     for label, cells in by_label.items():
@@ -93,7 +108,7 @@ def method_rows(directory: Path | str) -> dict[str, dict[str, str]]:
         values = (
             label, str(len(cells)), _interval(score_summary([r.scores["eval_return"] for r in cells])),
             _interval(score_summary(success), 2),
-            f"{sum(r.scores['eval_return'] >= goal for r in cells)} of {len(cells)}",
+            _kept(cells, goal),
             f"{sum(np.nansum(r.successes) > 0 for r in cells)} of {len(cells)}",
             _interval(score_summary(first_steps), 1, 1000), *versus,
             _interval(score_summary(shares), 3) if np.isfinite(shares).any() else "—",
@@ -108,25 +123,23 @@ def main(
     split: int = typer.Option(5, help="Kept counts are also given for seeds ≤ split and > split."),
 ) -> None:
     """Print the per-seed table and the goal counts of an experiment as Markdown."""
-    spec, _, records, missing = collect(directory)
-    goal = spec.return_goal if spec.return_goal is not None else 90.0
-    by_label = {m.label: [r for r in records if r.label == m.label] for m in spec.methods}
+    spec, root, records, missing = collect(directory)
+    goal = _goal(spec)
+    by_label = _by_label(spec, records)
     print(f"{spec.name}: {len(records)} cells done, {len(missing)} missing\n")
     for label, cells in by_label.items():
         row = "; ".join(f"s{r.seed} {_seed_cell(r, goal)}" for r in sorted(cells, key=lambda r: r.seed))
         print(f"- **{label}**: {row}")
     print("\n| " + " | ".join(COLUMNS) + " |")
     print("|---" * len(COLUMNS) + "|")
-    for row in method_rows(directory).values():
+    for row in method_rows(spec, root, records).values():
         print("| " + " | ".join(row.values()) + " |")
     print(f"\nKept ≥ {goal:g}, seeds ≤ {split} | seeds > {split}:")
     for label, cells in by_label.items():
         low = [r for r in cells if r.seed <= split]
         high = [r for r in cells if r.seed > split]
-        kept_low = sum(r.scores["eval_return"] >= goal for r in low)
-        kept_high = sum(r.scores["eval_return"] >= goal for r in high)
-        print(f"- {label}: {kept_low} of {len(low)} | {kept_high} of {len(high)}")
+        print(f"- {label}: {_kept(low, goal)} | {_kept(high, goal)}")
 
 
 if __name__ == "__main__":
-    sys.exit(typer.run(main))
+    typer.run(main)

@@ -1,4 +1,9 @@
-"""Shared dependencies: the service state and the bearer-token check (FastAPI template `deps.py`)."""
+"""The dependencies the API's routes (`service.api`) and the dashboard's pages (`service.ui`) share: the
+service state (`ServiceState`, `StateDep`) and the bearer-token check (`MutationAuth`).
+
+Below both, so neither imports the other: the API process's app is composed above them, in
+`service.server.create_app`.
+"""
 
 from __future__ import annotations
 

@@ -22,9 +22,10 @@ from fastapi import FastAPI
 from uvicorn.supervisors import Multiprocess
 
 from registry.database import Database
-from service.api.app import create_app
+from service.api.app import create_api
 from service.database.migrate import upgrade_service
 from service.settings import ServiceSettings
+from service.ui.routes import install_dashboard
 
 log = logging.getLogger("dualsys.service")
 PR_SET_PDEATHSIG = 1
@@ -32,6 +33,14 @@ API_PROCESS_HEALTHCHECK_S = 120
 """How long uvicorn's process manager waits for an API process to answer its ping before killing and
 replacing it. Its default (5 s) is shorter than importing the app takes on a loaded 2-core machine,
 where it killed every starting process for minutes."""
+
+
+def create_app(settings: ServiceSettings | None = None) -> FastAPI:
+    """An API process's app: the REST API (`service.api`) with the web dashboard under `/ui` (`service.ui`)
+    beside it. Composed here, above both, so that neither the API nor the dashboard imports the other."""
+    app = create_api(settings)
+    install_dashboard(app)
+    return app
 
 
 def serve(settings: ServiceSettings) -> None:

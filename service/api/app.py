@@ -1,4 +1,5 @@
-"""The FastAPI application factory: `create_app(settings)`.
+"""The REST API's FastAPI application: `create_api(settings)` (`service.server.create_app` adds the
+dashboard of `service.ui` beside it; the API never imports the dashboard).
 
 Start-up (lifespan): open the database, run `alembic upgrade head` (registry + service tables),
 open the registry, start the supervisor (unless `DUALSYS_RUN_JOBS=false`, for an API-only
@@ -19,7 +20,7 @@ from starlette.concurrency import run_in_threadpool
 from registry import PolicyRegistry
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
-from service.api.deps import ServiceState
+from service.deps import ServiceState
 from service.api.errors import install_error_handlers
 from service.api.routes import experiments, health, jobs, policies
 from service.api.size_limit import BodySizeLimit
@@ -28,12 +29,11 @@ from service.database.migrate import upgrade_service
 from service.execution.supervisor import Supervisor
 from service.schemas.specs import warm_up_validators
 from service.settings import ServiceSettings
-from service.ui.routes import install_dashboard
 
 log = logging.getLogger("dualsys.service")
 
 
-def create_app(settings: ServiceSettings | None = None) -> FastAPI:
+def create_api(settings: ServiceSettings | None = None) -> FastAPI:
     settings = settings or ServiceSettings()
 
     @asynccontextmanager
@@ -75,5 +75,4 @@ def create_app(settings: ServiceSettings | None = None) -> FastAPI:
     app.include_router(policies.router)
     app.include_router(experiments.router)
     app.include_router(health.router)
-    install_dashboard(app)  # the web dashboard under /ui (service/ui/)
     return app

@@ -24,7 +24,7 @@ from starlette.routing import NoMatchFound
 
 from registry.errors import RegistryError
 from registry.models import Policy, PolicyVersion
-from service.api.deps import StateDep
+from service.deps import StateDep
 from service.database import job_store
 from service.database.models import JOB_STATUSES, Job
 from service.errors import JobNotFound

@@ -10,7 +10,7 @@ from typing import Any
 from fastapi import APIRouter
 from sqlalchemy import text
 
-from service.api.deps import StateDep
+from service.deps import StateDep
 from service.database import job_store
 
 router = APIRouter(tags=["health"])

@@ -135,6 +135,8 @@ def test_service_layers_import_only_downward() -> None:
             "service.errors",
             "service.settings",
         ),
+        # the dependencies the API's routes and the dashboard's pages share: below both
+        "service.deps": ("service.database", "service.execution.supervisor", "service.settings"),
     }
     wrong = [
         f"{module} → {target}"
@@ -144,6 +146,25 @@ def test_service_layers_import_only_downward() -> None:
         if not _in(target, *below)
     ]
     assert not wrong, wrong
+
+
+def test_the_api_and_the_dashboard_never_import_each_other() -> None:
+    """`service.api` and `service.ui` sit side by side in the API process: what both need lives below them
+    (`service.deps`), and only the launcher (`service.server.create_app`) puts them together."""
+    wrong = [
+        f"{module} → {target}"
+        for layer, other in (("service.api", "service.ui"), ("service.ui", "service.api"))
+        for module, targets in _service_imports(layer).items()
+        for target in targets
+        if _in(target, other)
+    ]
+    assert not wrong, wrong
+    composers = sorted(
+        module
+        for module, targets in _service_imports("service").items()
+        if any(_in(t, "service.api") for t in targets) and any(_in(t, "service.ui") for t in targets)
+    )
+    assert composers == ["service.server"], composers
 
 
 def test_service_api_reaches_execution_only_through_the_supervisor_and_the_job_kinds() -> None:
@@ -174,8 +195,9 @@ def test_a_jobs_own_process_never_imports_the_database() -> None:
 
 
 def test_every_service_module_is_in_a_layer() -> None:
-    """Beside the layers, only the launcher, the client, the settings and the errors stay at the top."""
-    top = {"service", "service.server", "service.client", "service.settings", "service.errors"}
+    """Beside the layers, only the launcher, the client, the settings, the errors and the dependencies the
+    API and the dashboard share stay at the top."""
+    top = {"service", "service.server", "service.client", "service.settings", "service.errors", "service.deps"}
     loose = sorted(
         m for m in _modules() if _in(m, "service") and m not in top and not _in(m, *SERVICE_LAYERS)
     )

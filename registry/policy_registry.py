@@ -27,7 +27,7 @@ from registry.artifact_store import ArtifactStore, artifact_kind, sha256_of
 from registry.database import Database
 from registry.errors import InvalidName, InvalidRunDirectory, PolicyNotFound, VersionNotFound
 from registry.models import Policy, PolicyAlias, PolicyArtifact, PolicyVersion, PolicyVersionTag
-from registry.records import ArtifactRecord, PolicyRecord, PolicyVersionRecord
+from registry.records import ArtifactRecord, PolicyOverview, PolicyRecord, PolicyVersionRecord
 from registry.references import check_alias, check_policy_name, check_tag_key, parse_policy_ref
 from registry.run_directory import read_run_directory
 from registry.settings import RegistrySettings
@@ -272,6 +272,44 @@ class PolicyRegistry:
                 )
                 for p in policies
             ]
+
+    def policy_overviews(self) -> dict[str, PolicyOverview]:
+        """Per policy with at least one version: its version count, and its newest version's creation time
+        and source job (one query, for listings)."""
+        newest = (
+            select(
+                PolicyVersion.policy_id,
+                func.count().label("versions"),
+                func.max(PolicyVersion.version).label("top"),
+            )
+            .group_by(PolicyVersion.policy_id)
+            .subquery()
+        )
+        query = (
+            select(Policy.name, newest.c.versions, PolicyVersion.created_at, PolicyVersion.source_job_id)
+            .join(newest, newest.c.policy_id == Policy.id)
+            .join(
+                PolicyVersion,
+                (PolicyVersion.policy_id == Policy.id) & (PolicyVersion.version == newest.c.top),
+            )
+        )
+        with self.database.read() as session:
+            rows = session.execute(query).all()
+        return {
+            name: PolicyOverview(name, int(versions), created, job_id)
+            for name, versions, created, job_id in rows
+        }
+
+    def versions_from_job(self, job_id: int) -> list[str]:
+        """`name@version` of every version registered from the service's job `job_id`, by name and version."""
+        query = (
+            select(Policy.name, PolicyVersion.version)
+            .join(PolicyVersion, PolicyVersion.policy_id == Policy.id)
+            .where(PolicyVersion.source_job_id == job_id)
+            .order_by(Policy.name, PolicyVersion.version)
+        )
+        with self.database.read() as session:
+            return [f"{name}@{version}" for name, version in session.execute(query).all()]
 
     def get_policy(self, name: str) -> PolicyRecord:
         """A policy with all its versions."""

@@ -75,3 +75,13 @@ class PolicyRecord:
     latest_version: int | None
     aliases: dict[str, int]
     versions: list[PolicyVersionRecord] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class PolicyOverview:
+    """A policy at a glance: how many versions it has, and when and from which job its newest one came."""
+
+    name: str
+    versions: int
+    latest_created_at: datetime | None
+    latest_source_job_id: int | None

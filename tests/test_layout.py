@@ -197,7 +197,14 @@ def test_a_jobs_own_process_never_imports_the_database() -> None:
 def test_every_service_module_is_in_a_layer() -> None:
     """Beside the layers, only the launcher, the client, the settings, the errors and the dependencies the
     API and the dashboard share stay at the top."""
-    top = {"service", "service.server", "service.client", "service.settings", "service.errors", "service.deps"}
+    top = {
+        "service",
+        "service.server",
+        "service.client",
+        "service.settings",
+        "service.errors",
+        "service.deps",
+    }
     loose = sorted(
         m for m in _modules() if _in(m, "service") and m not in top and not _in(m, *SERVICE_LAYERS)
     )

@@ -20,12 +20,12 @@ from starlette.concurrency import run_in_threadpool
 from registry import PolicyRegistry
 from registry.artifact_store import ArtifactStore
 from registry.database import Database
-from service.deps import ServiceState
 from service.api.errors import install_error_handlers
 from service.api.routes import experiments, health, jobs, policies
 from service.api.size_limit import BodySizeLimit
 from service.database.job_inserter import JobInserter
 from service.database.migrate import upgrade_service
+from service.deps import ServiceState
 from service.execution.supervisor import Supervisor
 from service.schemas.specs import warm_up_validators
 from service.settings import ServiceSettings

@@ -134,6 +134,14 @@ def get_jobs(database: Database, *, job_ids: list[int]) -> list[Job]:
         return list(session.scalars(select(Job).where(Job.id.in_(job_ids))))
 
 
+def existing_job_ids(database: Database, *, job_ids: set[int] | list[int]) -> set[int]:
+    """Which of these job ids exist (a policy version may outlive the job it came from)."""
+    if not job_ids:
+        return set()
+    with database.read() as session:
+        return set(session.scalars(select(Job.id).where(Job.id.in_(list(job_ids)))))
+
+
 def list_jobs(
     database: Database,
     *,
@@ -292,6 +300,23 @@ class MetricSeries:
 
 EVALUATION_KEY = "eval/success_rate"
 """A record with this key holds a greedy evaluation (the trainer writes NaN, stored as null, elsewhere)."""
+
+
+def metrics_after(database: Database, *, since: dict[int, int]) -> list[tuple[int, int, dict[str, Any]]]:
+    """`(job_id, episode, data)` of each given job's records after its episode in `since`, by job and
+    episode (one query for all the jobs: what the dashboard's success figure reads while jobs run)."""
+    if not since:
+        return []
+    condition = or_(
+        *((JobMetric.job_id == job_id) & (JobMetric.episode > episode) for job_id, episode in since.items())
+    )
+    query = (
+        select(JobMetric.job_id, JobMetric.episode, JobMetric.data)
+        .where(condition)
+        .order_by(JobMetric.job_id, JobMetric.episode)
+    )
+    with database.read() as session:
+        return [(job_id, episode, data or {}) for job_id, episode, data in session.execute(query).all()]
 
 
 def metric_series(database: Database, *, job_id: int, points: int) -> MetricSeries:

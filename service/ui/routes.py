@@ -19,14 +19,12 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Path, Query, Request
 from fastapi.responses import HTMLResponse, RedirectResponse
-from sqlalchemy import func, select
 from starlette.routing import NoMatchFound
 
 from registry.errors import RegistryError
-from registry.models import Policy, PolicyVersion
-from service.deps import StateDep
 from service.database import job_store
-from service.database.models import JOB_STATUSES, Job
+from service.database.models import JOB_STATUSES
+from service.deps import StateDep
 from service.errors import JobNotFound
 from service.schemas.config_overrides import algo_names
 from service.schemas.jobs import JobKindName
@@ -157,7 +155,7 @@ def job_page(job_id: Annotated[int, Path(ge=1, le=MAX_SAFE_INTEGER)], state: Sta
     row = job_row(job, success, datetime.now(UTC))
     config = (job.resolved or {}).get("config")
     resolved_rest = {k: v for k, v in (job.resolved or {}).items() if k != "config"}
-    produced = _versions_of_job(state, job_id)
+    produced = state.registry.versions_from_job(job_id)
     return _page(
         "job.html",
         started,
@@ -230,18 +228,6 @@ def compare_page(
     )
 
 
-def _versions_of_job(state: Any, job_id: int) -> list[str]:
-    """`name@version` of every policy version registered from this job."""
-    with state.database.read() as session:
-        rows = session.execute(
-            select(Policy.name, PolicyVersion.version)
-            .join(PolicyVersion, PolicyVersion.policy_id == Policy.id)
-            .where(PolicyVersion.source_job_id == job_id)
-            .order_by(Policy.name, PolicyVersion.version)
-        ).all()
-    return [f"{name}@{version}" for name, version in rows]
-
-
 @router.get("/policies", response_class=HTMLResponse)
 def policies_page(state: StateDep) -> HTMLResponse:
     """Every policy with its newest version and aliases."""
@@ -253,35 +239,8 @@ def policies_page(state: StateDep) -> HTMLResponse:
         title="Registry",
         nav="policies",
         policies=policies,
-        overview=_policy_overview(state),
+        overview=state.registry.policy_overviews(),
     )
-
-
-def _policy_overview(state: Any) -> dict[str, dict[str, Any]]:
-    """Per policy: how many versions, and when and from which job its newest one came."""
-    newest = (
-        select(
-            PolicyVersion.policy_id,
-            func.count().label("versions"),
-            func.max(PolicyVersion.version).label("top"),
-        )
-        .group_by(PolicyVersion.policy_id)
-        .subquery()
-    )
-    query = (
-        select(Policy.name, newest.c.versions, PolicyVersion.created_at, PolicyVersion.source_job_id)
-        .join(newest, newest.c.policy_id == Policy.id)
-        .join(
-            PolicyVersion,
-            (PolicyVersion.policy_id == Policy.id) & (PolicyVersion.version == newest.c.top),
-        )
-    )
-    with state.database.read() as session:
-        rows = session.execute(query).all()
-    return {
-        name: {"versions": versions, "latest_created": created, "latest_job": job_id}
-        for name, versions, created, job_id in rows
-    }
 
 
 @router.get("/policies/{name}", response_class=HTMLResponse)
@@ -302,7 +261,7 @@ def policy_page(name: str, state: StateDep) -> HTMLResponse:
                 chain = []
             lineages[version.version] = [record.ref for record in chain[1:]]
     job_ids = {v.source_job_id for v in versions if v.source_job_id is not None}
-    existing = _existing_jobs(state, job_ids)
+    existing = job_store.existing_job_ids(state.database, job_ids=job_ids)
     return _page(
         "policy.html",
         started,
@@ -314,13 +273,6 @@ def policy_page(name: str, state: StateDep) -> HTMLResponse:
         existing_jobs=existing,
         page_data={"policy": policy.name},
     )
-
-
-def _existing_jobs(state: Any, job_ids: set[int]) -> set[int]:
-    if not job_ids:
-        return set()
-    with state.database.read() as session:
-        return set(session.scalars(select(Job.id).where(Job.id.in_(job_ids))))
 
 
 @router.get("/experiments", response_class=HTMLResponse)

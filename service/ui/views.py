@@ -22,10 +22,9 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
 
-from sqlalchemy import select
-
 from registry.database import Database
-from service.database.models import FINISHED_STATUSES, JobMetric
+from service.database import job_store
+from service.database.models import FINISHED_STATUSES
 
 TRAIN_WINDOW = 100
 """Training episodes averaged for the fallback success figure (as the summary's `..._last100`)."""
@@ -178,23 +177,9 @@ class SuccessTracker:
                 seen.episode = max(0, job.progress_episode - FIRST_LOOK_ROWS)
             if seen.episode < job.progress_episode:
                 since[job.id] = seen.episode
-        if not since:
-            return
-        condition = None
-        for job_id, episode in since.items():
-            clause = (JobMetric.job_id == job_id) & (JobMetric.episode > episode)
-            condition = clause if condition is None else condition | clause
-        query = (
-            select(JobMetric.job_id, JobMetric.episode, JobMetric.data)
-            .where(condition)
-            .order_by(JobMetric.job_id, JobMetric.episode)
-        )
-        with database.read() as session:
-            rows = session.execute(query).all()
-        for job_id, episode, data in rows:
+        for job_id, episode, data in job_store.metrics_after(database, since=since):
             seen = self._seen[job_id]
             seen.episode = max(seen.episode, episode)
-            data = data or {}
             value = _finite(data.get("eval/success_rate"))
             if value is not None:
                 seen.eval_value, seen.eval_episode = value, episode

@@ -9,10 +9,10 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Path, Query, Response, status
 
 from registry.artifact_store import ArtifactStore
-from service.deps import MutationAuth, ServiceState, StateDep
 from service.api.links import link, linked
 from service.api.presenters import json_response
 from service.database import experiment_store
+from service.deps import MutationAuth, ServiceState, StateDep
 from service.schemas.errors import ErrorPublic
 from service.schemas.experiments import (
     CellCounts,

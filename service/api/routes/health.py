@@ -10,8 +10,8 @@ from typing import Any
 from fastapi import APIRouter
 from sqlalchemy import text
 
-from service.deps import StateDep
 from service.database import job_store
+from service.deps import StateDep
 
 router = APIRouter(tags=["health"])
 

@@ -21,11 +21,11 @@ from fastapi.responses import FileResponse, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
 from registry.artifact_store import ARTIFACT_NAME, ArtifactStore
-from service.deps import MutationAuth, StateDep
 from service.api.events import job_events, parse_last_event_id
 from service.api.links import link, linked
 from service.api.presenters import artifact_public, job_public, json_response, metric_public
 from service.database import job_store
+from service.deps import MutationAuth, StateDep
 from service.execution.job_kinds import job_kind
 from service.schemas.errors import ErrorPublic
 from service.schemas.jobs import (

@@ -11,9 +11,9 @@ from fastapi.responses import FileResponse
 from registry.artifact_store import ARTIFACT_NAME
 from registry.errors import InvalidRunDirectory, VersionNotFound
 from registry.references import ALIAS_NAME, NOT_AN_ALIAS, POLICY_NAME, SELECTOR, TAG_KEY
-from service.deps import MutationAuth, StateDep
 from service.api.links import link, linked
 from service.database import job_store
+from service.deps import MutationAuth, StateDep
 from service.errors import JobConflict, SpecRejected
 from service.schemas.errors import ErrorPublic
 from service.schemas.policies import (

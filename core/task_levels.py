@@ -15,6 +15,10 @@ and how many grasp attempts an episode allows. Everything else — the 64×32 to
   least 30° from the start (one 20° step cannot reach it, so no first-step luck), and an episode allows one
   grasp attempt (a failed verification ends it, with no penalty: sparse stays sparse). A blind policy cannot
   know when to close; a random one closes long before it reaches the glass. Calibrated in docs/environment.md.
+* ``seen`` — ``hard`` with the shoulder window starting at the start angle, 0°: the camera sees the arm over
+  the whole window (issue 51). On ``hard`` the arm is out of the image from −100° to about −6°, where every
+  angle gives the same image; from 0° up every 1° move changes the image of both cameras (sim and real).
+  Everything else is ``hard``'s. Calibrated in docs/environment.md ("What the camera sees of the arm").
 """
 
 from __future__ import annotations
@@ -73,6 +77,17 @@ LEVELS: dict[str, TaskLevel] = {
             name="hard",
             summary="paper, with the glass at least 30° from the start and one grasp attempt per episode",
             shoulder_window_deg=(-100.0, 100.0),
+            start_deg=0.0,
+            min_glass_offset_deg=30.0,
+            hand="learned",
+            hands=("learned",),
+            attempts_per_episode=1,
+            charge_early_topple=True,
+        ),
+        TaskLevel(
+            name="seen",
+            summary="hard, with the shoulder window 0°-100°: the camera sees the arm over the whole window",
+            shoulder_window_deg=(0.0, 100.0),
             start_deg=0.0,
             min_glass_offset_deg=30.0,
             hand="learned",

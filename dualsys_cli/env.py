@@ -14,8 +14,8 @@ app = typer.Typer(
     no_args_is_help=True,
 )
 
-LEVEL_HELP = "Task level: released | paper | hard (docs/environment.md)."
-HAND_HELP = "Hand mode: auto | learned (default: the level's hand; released: auto, paper and hard: learned)."
+LEVEL_HELP = "Task level: released | paper | hard | seen (docs/environment.md)."
+HAND_HELP = "Hand mode: auto | learned (default: the level's hand; released: auto, the others: learned)."
 
 
 @app.command("show")

@@ -101,8 +101,8 @@ class EnvConfig:
     """A constant added to every step's reward of a task other than NicoGrasp, in training and evaluation
     alike (0: the task's own reward). A control, not a tuning knob: it asks what a cost per step alone does
     (docs/results.md, grid 5: DDPG with −0.015 per step on MountainCar)."""
-    level: Literal["released", "paper", "hard"] = "released"
-    """Task level (core/task_levels.py; calibrated in docs/environment.md): released, paper or hard."""
+    level: Literal["released", "paper", "hard", "seen"] = "released"
+    """Task level (core/task_levels.py; calibrated in docs/environment.md): released, paper, hard or seen."""
     reward_mode: Literal["dense", "sparse"] = "dense"
     """Extrinsic reward of Section 4.1.2: dense shaping or 0 outside grasp/topple."""
     hand: Literal["auto", "learned"] | None = None

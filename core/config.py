@@ -734,6 +734,30 @@ _POSITIVE: tuple[str, ...] = (
 """Real-valued keys that must be > 0."""
 
 
+def value_bounds() -> dict[str, dict[str, float]]:
+    """Per ``section.key``, the bounds `check_config` enforces, as JSON-schema words: ``ge`` (>=), ``gt``
+    (>), ``le`` (<=). A key that may also be None (``_POSITIVE_OR_NONE``) has its bound for when it is set."""
+    bounds: dict[str, dict[str, float]] = {}
+    for key in _POSITIVE_INTS:
+        bounds[key] = {"ge": 1}
+    for key in _NON_NEGATIVE:
+        bounds[key] = {"ge": 0}
+    for key in (*_POSITIVE_OR_NONE, *_POSITIVE):
+        bounds[key] = {"gt": 0}
+    for key in ("agent.gamma", "agent.tau"):
+        bounds[key] = {"ge": 0, "le": 1}
+    return bounds
+
+
+def level_hand_error(level: str, hand: str | None) -> str | None:
+    """Why ``env.hand`` = `hand` is refused on task level `level` (`check_config`'s words), or None when the
+    level admits it (None, the level's own hand, is always admitted; an unknown level is another check's)."""
+    task_level = LEVELS.get(level)
+    if task_level is None or hand is None or hand in task_level.hands:
+        return None
+    return f"level {task_level.name!r} admits {' or '.join(task_level.hands)}, got {hand!r}"
+
+
 def check_config(config: Config) -> None:
     """Range checks a type cannot express; raises ConfigError naming the key."""
 

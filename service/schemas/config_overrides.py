@@ -1,15 +1,15 @@
 """A train spec's `overrides` as an exact contract: every config key with its JSON type and range.
 
 The keys, types and choices come from `core.config`'s dataclasses (so a key added there, such as
-`env.id`, is accepted and documented without a change here); the ranges from the same tuples
-`core.config.check_config` reads. Values are typed JSON (`{"agent.batch_size": 32}`, not `"32"`): the
-OpenAPI schema says what the service accepts, and a generated client can trust it. Text such as the
-CLI's `--set agent.batch_size=32` is turned into typed values with `typed_overrides` (the config's own
-coercion) before it is sent.
+`env.id`, is accepted and documented without a change here); the ranges from `core.config.value_bounds`,
+the bounds `core.config.check_config` enforces. Values are typed JSON (`{"agent.batch_size": 32}`, not
+`"32"`): the OpenAPI schema says what the service accepts, and a generated client can trust it. Text such
+as the CLI's `--set agent.batch_size=32` is turned into typed values with `typed_overrides` (the config's
+own coercion) before it is sent.
 
 What the types cannot say is stated separately: the budget keys take no `null` here (a train spec's
 `steps` or `minutes` lifts the episode limit, as `dualsys train --steps` does), and `env.hand` must be
-one the `env.level` admits (`core.task_levels`), written as a `not` clause per excluded pair.
+one the `env.level` admits (`core.config.level_hand_error`), written as a `not` clause per excluded pair.
 """
 
 from __future__ import annotations
@@ -23,25 +23,10 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, Field, StrictBool, StrictFloat, StrictInt, StrictStr, create_model
 
 import core.config as config_module
-from core.task_levels import LEVELS
 from service.schemas.json_schema import MAX_SAFE_INTEGER, StrictRequest
 
 NOT_NULL = ("run.episodes", "run.steps", "run.max_wall_s")
 """Budget keys: with `null` refused here, a train job always has a budget (check_config's last rule)."""
-
-
-def _ranges() -> dict[str, dict[str, float]]:
-    """Per key, the bounds `check_config` enforces (`ge`, `gt`, `le`)."""
-    bounds: dict[str, dict[str, float]] = {}
-    for key in getattr(config_module, "_POSITIVE_INTS", ()):
-        bounds[key] = {"ge": 1}
-    for key in getattr(config_module, "_NON_NEGATIVE", ()):
-        bounds[key] = {"ge": 0}
-    for key in (*config_module._POSITIVE_OR_NONE, *config_module._POSITIVE):
-        bounds[key] = {"gt": 0}
-    for key in ("agent.gamma", "agent.tau"):
-        bounds[key] = {"ge": 0, "le": 1}
-    return bounds
 
 
 def _value_type(annotation: Any, key: str, bounds: dict[str, float]) -> Any:
@@ -104,14 +89,18 @@ def config_annotations() -> dict[str, Any]:
     return found
 
 
+def _choices(key: str) -> list[Any]:
+    """The literal values a `Literal[...]` (or `Literal[...] | None`) config key takes."""
+    args = typing.get_args(config_annotations().get(key, type(None)))
+    return [value for arg in args for value in typing.get_args(arg)] or list(args)
+
+
 def _hand_rules() -> list[dict[str, Any]]:
     """One `not` clause per (level, hand) pair the level does not admit."""
-    hands = typing.get_args(config_annotations().get("env.hand", type(None)))
-    choices = [h for arg in hands for h in typing.get_args(arg)] or list(hands)
     rules = []
-    for name, level in LEVELS.items():
-        for hand in choices:
-            if isinstance(hand, str) and hand not in level.hands:
+    for name in _choices("env.level"):
+        for hand in _choices("env.hand"):
+            if isinstance(hand, str) and config_module.level_hand_error(name, hand):
                 rules.append(
                     {
                         "not": {
@@ -126,7 +115,7 @@ def _hand_rules() -> list[dict[str, Any]]:
 @cache
 def overrides_model() -> type[BaseModel]:
     """A pydantic model whose fields are the config keys (aliases `section.key`); unknown keys refused."""
-    bounds = _ranges()
+    bounds = config_module.value_bounds()
     fields: dict[str, Any] = {}
     for key, annotation in config_annotations().items():
         value = _value_type(annotation, key, bounds.get(key, {}))
@@ -149,8 +138,10 @@ def check_overrides(values: dict[str, Any]) -> None:
             raise ValueError(f"unknown config key {key!r}") from None
         raise ValueError(f"{key}: {first['msg']}") from None
     level, hand = values.get("env.level"), values.get("env.hand")
-    if level in LEVELS and isinstance(hand, str) and hand not in LEVELS[level].hands:
-        raise ValueError(f"env.hand: level {level!r} admits {' or '.join(LEVELS[level].hands)}, got {hand!r}")
+    if isinstance(level, str) and isinstance(hand, str):
+        message = config_module.level_hand_error(level, hand)
+        if message:
+            raise ValueError(f"env.hand: {message}")
 
 
 @cache

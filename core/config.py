@@ -76,6 +76,11 @@ class RunConfig:
     """Sliding window (episodes) of the learning-curve PNG (Fig. 8: 250 dense, 375 sparse)."""
     tensorboard: bool = False
     """Also write TensorBoard event files into the run directory, named as metrics.csv's columns."""
+    cpu_isa: Literal["native", "avx2", "sse42"] = "native"
+    """Instruction set of the CPU kernels (torch/ATen, MKL, oneDNN, NumPy, OpenBLAS), pinned in the run's
+    process environment so that the run reproduces bit for bit on any x86-64 machine that has it: native
+    (the CPU's own; across machines reproduction is statistical), avx2 (x86-64-v3), sse42 (x86-64-v2)
+    (core.runs.cpu_isa, docs/experiments.md "Portable runs")."""
 
 
 NICO_GRASP_ID = "dualsys/NicoGrasp-v0"

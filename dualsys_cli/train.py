@@ -221,10 +221,13 @@ def train_command(
         )
         from core.config import check_config
         from core.envs.gym_env import make_env
+        from core.runs.cpu_isa import ensure_process
         from core.runs.methods import resolve_algo
 
         config = resolve_algo(config)
         check_config(config)
+        # run.cpu_isa: re-execute this command with the kernels pinned (torch and NumPy start anew there)
+        ensure_process(config.run.cpu_isa)
         console = Console(stderr=True)
         adapted = make_env(config.env)  # an unknown id or unsupported space fails here, before any folder
         adapted.env.close()

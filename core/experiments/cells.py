@@ -57,6 +57,13 @@ class Cell:
         return int(self.config["run"]["steps"])
 
 
+def cell_cpu_isa(cell: Cell) -> str:
+    """The cell's ``run.cpu_isa`` (``native`` for a config without one): the instruction set its process's
+    kernels are pinned to (``core.runs.cpu_isa``)."""
+    run = cell.config.get("run") or {}
+    return str(run.get("cpu_isa") or "native")
+
+
 def load_experiment(source: Path | str | Mapping[str, Any]) -> ExperimentSpec:
     """Read and validate an experiment (a YAML path, YAML text or a mapping) and resolve every method's config
     (profile → common overrides → method overrides → the cell's keys), checked as ``dualsys train`` would, so

@@ -6,6 +6,9 @@ checkpoint on the next run), a replacement worker takes the next queued cell, an
 
 Workers are spawned (not forked: the parent may hold threads, and torch must start single-threaded) with
 ``OMP_NUM_THREADS=1`` and friends; the trainer then sets ``torch.set_num_threads(run.num_threads=1)``.
+A cell whose ``run.cpu_isa`` pins the kernels' instruction set goes to a worker spawned with that pin's
+variables (``core.runs.cpu_isa``); a worker only ever takes cells of its own pin, and an idle worker whose
+pin no queued cell has exits to make room.
 
 Stopping: ``should_stop()`` returning True, or Ctrl-C (SIGINT reaches the whole foreground process group),
 makes every running trainer end its episode early, write ``latest.pt`` and report ``stopped``; queued cells
@@ -26,8 +29,9 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
-from core.experiments.cells import Cell
+from core.experiments.cells import Cell, cell_cpu_isa
 from core.experiments.progress import ExperimentProgress, ProgressCallback
+from core.runs.cpu_isa import pinned_environment
 
 SINGLE_THREAD_ENV: dict[str, str] = {
     "OMP_NUM_THREADS": "1",
@@ -149,7 +153,9 @@ def _environment(values: dict[str, str]) -> Iterator[None]:
 class _Worker:
     process: Any
     conn: Connection
+    cpu_isa: str
     cell: Cell | None = None
+    retiring: bool = False
 
 
 def run_local(
@@ -175,7 +181,7 @@ def run_local(
         if progress_callback is not None:
             progress_callback(progress)
 
-    def spawn() -> _Worker:
+    def spawn(cpu_isa: str) -> _Worker:
         parent_end, child_end = context.Pipe(duplex=True)
         process = context.Process(
             target=_worker_main,
@@ -183,15 +189,28 @@ def run_local(
             name="dualsys-experiment-worker",
             daemon=True,
         )
-        with _environment(SINGLE_THREAD_ENV):
+        with _environment({**SINGLE_THREAD_ENV, **pinned_environment(cpu_isa)}):
             process.start()
         child_end.close()
-        worker = _Worker(process, parent_end)
+        worker = _Worker(process, parent_end, cpu_isa)
         pool.append(worker)
         return worker
 
-    def dispatch(worker: _Worker) -> None:
-        cell = queue.popleft()
+    def take(cpu_isa: str) -> Cell | None:
+        """The first queued cell of ``cpu_isa`` (removed from the queue), or None."""
+        for index, cell in enumerate(queue):
+            if cell_cpu_isa(cell) == cpu_isa:
+                del queue[index]
+                return cell
+        return None
+
+    def retire(worker: _Worker) -> None:
+        """An idle worker whose pin no queued cell has: it exits (reaped as it ends)."""
+        worker.retiring = True
+        with contextlib.suppress(OSError, BrokenPipeError):
+            worker.conn.send(None)
+
+    def dispatch(worker: _Worker, cell: Cell) -> None:
         worker.cell = cell
         state = progress.cells[cell.key]
         state.status, state.worker, state.pid = "running", f"pid {worker.process.pid}", worker.process.pid
@@ -240,12 +259,16 @@ def run_local(
             if dead or (worker.process.sentinel in ready and not worker.process.is_alive()):
                 reap(worker)
         if not stopping:
-            idle = [w for w in pool if w.cell is None]
+            idle = [w for w in pool if w.cell is None and not w.retiring]
             for worker in idle:
-                if queue:
-                    dispatch(worker)
-            while queue and len(pool) < workers:
-                dispatch(spawn())
+                cell = take(worker.cpu_isa)
+                if cell is not None:
+                    dispatch(worker, cell)
+                elif queue:
+                    retire(worker)
+            while queue and sum(not w.retiring for w in pool) < workers:
+                cell = queue.popleft()
+                dispatch(spawn(cell_cpu_isa(cell)), cell)
         notify()
 
     try:

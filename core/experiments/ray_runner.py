@@ -21,7 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from core.experiments.cells import Cell
+from core.experiments.cells import Cell, cell_cpu_isa
 from core.experiments.local_runner import SINGLE_THREAD_ENV
 from core.experiments.progress import ExperimentProgress, ProgressCallback, read_recent_records
 
@@ -46,6 +46,17 @@ def _cell_task(cell: Cell) -> dict[str, Any]:
         "worker": f"{socket.gethostname()} node {node[:8]} pid {os.getpid()}",
         "node": node,
     }
+
+
+def _pinned_options(cell: Cell) -> dict[str, Any]:
+    """A cell with ``run.cpu_isa`` pinned runs in a worker process started with the pin's variables (Ray
+    starts a worker for each distinct runtime environment)."""
+    from core.runs.cpu_isa import pinned_environment
+
+    pinned = pinned_environment(cell_cpu_isa(cell))
+    if not pinned:
+        return {}
+    return {"runtime_env": {"env_vars": {**SINGLE_THREAD_ENV, "PYTHONPATH": str(PROJECT_ROOT), **pinned}}}
 
 
 def run_ray(
@@ -144,7 +155,8 @@ def _drive(
                 cancel(force=False)
             while queue and not stopping and len(in_flight) < capacity:
                 cell = queue.popleft()
-                in_flight[remote.options(name=f"dualsys-cell-{cell.key}").remote(cell)] = cell
+                options = {"name": f"dualsys-cell-{cell.key}", **_pinned_options(cell)}
+                in_flight[remote.options(**options).remote(cell)] = cell
                 progress.cells[cell.key].status = "running"
                 progress.cells[cell.key].worker = "ray"
             ready, _ = ray.wait(list(in_flight), num_returns=1, timeout=0.5)

@@ -15,13 +15,14 @@ from pathlib import Path
 from core.experiments.cells import (
     EXPERIMENT_FILE,
     Cell,
+    cell_cpu_isa,
     cell_state,
     check_cells,
     expand_cells,
     experiment_dir,
 )
 from core.experiments.progress import ExperimentProgress, ProgressCallback
-from core.experiments.spec import ExperimentSpec
+from core.experiments.spec import ExperimentError, ExperimentSpec
 from core.runs.run_dir import atomic_write_text
 
 WORKER_LOG = "workers.log"
@@ -113,6 +114,8 @@ def run_experiment(
     """
     started = time.monotonic()
     plan = plan_experiment(spec, out)
+    if ray_address is None:
+        check_cpu_isas(plan.to_run)
     plan.directory.mkdir(parents=True, exist_ok=True)
     atomic_write_text(plan.directory / EXPERIMENT_FILE, spec.to_yaml())
     progress = ExperimentProgress.for_cells(spec.name, [(cell.key, cell.steps) for cell in plan.cells])
@@ -145,6 +148,17 @@ def run_experiment(
                 should_stop=should_stop,
             )
     return _result(plan, progress, time.monotonic() - started)
+
+
+def check_cpu_isas(cells: list[Cell]) -> None:
+    """Refuse (one line) to run cells whose ``run.cpu_isa`` this machine's CPU lacks, before any starts.
+    (On Ray each task's trainer checks its own node.)"""
+    from core.runs.cpu_isa import host_problem
+
+    for cpu_isa in sorted({cell_cpu_isa(cell) for cell in cells}):
+        problem = host_problem(cpu_isa)
+        if problem is not None:
+            raise ExperimentError(problem)
 
 
 def _result(plan: ExperimentPlan, progress: ExperimentProgress, wall_s: float) -> ExperimentResult:

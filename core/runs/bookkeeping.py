@@ -33,6 +33,7 @@ import torch
 
 from core.config import Config, ConfigError, check_config, resolve_level_defaults
 from core.dual.readings import upgrade_stored
+from core.runs.cpu_isa import check_process
 from core.runs.metrics import area_under_curve, final_performance
 from core.runs.run_dir import CHECKPOINT_FORMAT, MetricsCSV, RunDirectory, RunDirectoryError, load_checkpoint
 from core.runs.tensorboard_log import TensorBoardLog, require_tensorboard
@@ -140,6 +141,8 @@ class RunBookkeeping:
         self.stopped = False
         self.tensorboard: TensorBoardLog | None = None
         self.resumed_at_step: int | None = None
+        self.cpu: dict[str, str] = {}
+        """The kernels the run got (run.cpu_isa, torch's capability, the CPU), for summary.json."""
 
     # -- setup -----------------------------------------------------------------------------------
     def _check_checkpoint(self, checkpoint: Mapping[str, Any]) -> None:
@@ -149,6 +152,7 @@ class RunBookkeeping:
         """Set up the run directory, torch's threads and seed, and metrics.csv; the checkpoint to resume
         from (``None`` for a new run)."""
         checkpoint = None
+        self.cpu = check_process(self.config.run.cpu_isa)  # a pinned run in an unpinned process stops here
         if self.config.run.tensorboard:
             require_tensorboard()
         if self.resume:
@@ -163,6 +167,11 @@ class RunBookkeeping:
                     )
             if saved.run.algo != self.config.run.algo:
                 raise ConfigError(f"cannot resume {self.dir.root}: it was trained with {saved.run.algo!r}")
+            if saved.run.cpu_isa != self.config.run.cpu_isa:
+                raise ConfigError(
+                    f"cannot resume {self.dir.root}: it ran with run.cpu_isa={saved.run.cpu_isa}, "
+                    f"not {self.config.run.cpu_isa}"
+                )
         elif self.dir.holds_run():
             raise RunDirectoryError(f"run directory {self.dir.root} already holds a run (resume it instead)")
         self.dir.create()
@@ -323,6 +332,7 @@ class RunBookkeeping:
             "wall_s": self.wall(),
             "sps": self._steps_per_second(),
             "stopped": self.stopped,
+            **self.cpu,
         }
 
     def _finish(

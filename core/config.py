@@ -213,11 +213,15 @@ class AgentConfig:
     """Std after annealing (equal to noise_std: no annealing)."""
     noise_anneal_steps: int = 30_000
     """Environment steps over which the std decays linearly to noise_final_std."""
-    noise: Literal["gaussian", "ou"] = "gaussian"
-    """DDPG/TD3/CACLA exploration noise: i.i.d. Gaussian, or Ornstein-Uhlenbeck (θ = ``noise_theta``, dt =
-    0.01, σ = the annealed std; reset every episode; SB3's OrnsteinUhlenbeckActionNoise). SAC samples π."""
+    noise: Literal["gaussian", "ou", "pink"] = "gaussian"
+    """DDPG/TD3/CACLA exploration noise: i.i.d. Gaussian, Ornstein-Uhlenbeck (θ = ``noise_theta``, dt =
+    0.01, σ = the annealed std; reset every episode; SB3's OrnsteinUhlenbeckActionNoise), or pink
+    (``pink-noise-rl``'s PinkNoiseProcess times the annealed std; a new sequence every episode). SAC samples
+    π: with ``pink``, its ε of acting comes from the pink process (docs/model-free.md, "Pink noise")."""
     noise_theta: float = 0.15
     """θ of the Ornstein-Uhlenbeck noise (SB3's default)."""
+    noise_seq_len: int | None = None
+    """Pink noise: the length of each noise sequence; None: the env's step limit (the episode length)."""
     warmup: Literal["policy", "uniform"] = "policy"
     """Actions before ``learning_starts``: the policy with its exploration (paper) or uniform random (SB3)."""
     policy_delay: int = 2
@@ -727,7 +731,7 @@ _NON_NEGATIVE = (
 
 _POSITIVE_OR_NONE: tuple[str, ...] = (
     "run.episodes", "run.steps", "run.max_wall_s", "run.checkpoint_every_s", "env.fixed_positions",
-    "dual.e_max_relative", "agent.encoder_tau", "dual.imagination_depth",
+    "dual.e_max_relative", "agent.encoder_tau", "dual.imagination_depth", "agent.noise_seq_len",
 )
 """Keys that are > 0 or None (`check_config`; the service's overrides schema reads the same tuple)."""
 

@@ -50,7 +50,12 @@ episode's end and resumed, of the same seed, give the same episodes.
 Stable-Baselines3 is optional (the ``bench`` extra); this module imports it only when a run starts, and
 a missing SB3 is the one-line :class:`core.experiments.spec.ExperimentError` of
 :func:`core.experiments.sb3_settings.require_sb3`. ``core.experiments.dispatch`` sends the cells of
-``sb3-sac``, ``sb3-td3`` and ``sb3-ddpg`` to :class:`SB3Runner`.
+``sb3-sac``, ``sb3-td3``, ``sb3-ddpg`` and ``sb3-sac-pink`` to :class:`SB3Runner`.
+
+``sb3-sac-pink`` (``train_sb3(..., pink=True)``) is SB3's SAC with ``pink-noise-rl``'s ``PinkNoiseDist`` as
+the actor's distribution (:func:`core.experiments.sb3_settings.use_pink_noise`), set on the built or loaded
+model; its checkpoints add the pink process's sequence, position and generator, so a resumed run goes on
+with the same noise.
 """
 
 from __future__ import annotations
@@ -78,6 +83,7 @@ from core.experiments.runners import (
     cell_overrides,
 )
 from core.experiments.sb3_settings import (
+    PINK_PEERS,
     SB3_ALGOS,
     SB3Settings,
     algorithm_class,
@@ -85,9 +91,11 @@ from core.experiments.sb3_settings import (
     make_model,
     require_sb3,
     sb3_settings,
+    use_pink_noise,
 )
 from core.experiments.spec import ExperimentError, ExperimentSpec, MethodSpec
 from core.modelfree.agent import generator_state, restore_generator
+from core.modelfree.noise import DEFAULT_SEQ_LEN, episode_limit
 from core.runs.bookkeeping import RunBookkeeping, env_diagnostics, mean_dicts
 from core.runs.run_dir import RunDirectoryError, atomic_torch_save, atomic_write_bytes, atomic_write_text
 
@@ -209,6 +217,23 @@ def _restore_sde_state(model: Any, state: Mapping[str, torch.Tensor]) -> None:
         setattr(dist, name, tensor.clone())
 
 
+def _pink_state(model: Any) -> dict[str, Any]:
+    """The pink process of ``PinkNoiseDist`` (``sb3-sac-pink``): its sequence, position and generator."""
+    gen = model.actor.action_dist.gen
+    return {
+        "buffer": torch.from_numpy(np.ascontiguousarray(gen.buffer)),
+        "idx": int(gen.idx),
+        "rng": generator_state(gen.rng),
+    }
+
+
+def _restore_pink_state(model: Any, state: Mapping[str, Any]) -> None:
+    gen = model.actor.action_dist.gen
+    gen.buffer = state["buffer"].numpy().copy()
+    gen.idx = int(state["idx"])
+    restore_generator(gen.rng, state["rng"])
+
+
 def _start_value(model: Any) -> float:
     """The critic's value of the deterministic action at the observation the next step acts on:
     ``charts/start_value`` when taken at an episode's first step."""
@@ -290,11 +315,15 @@ class _SB3Run(RunBookkeeping):
         on_episode: EpisodeCallback | None,
         should_stop: Callable[[], bool] | None,
         command: str | None,
+        pink: bool = False,
     ) -> None:
         if algo not in SB3_ALGOS.values():
             raise ConfigError(f"unknown SB3 algorithm {algo!r} (choose from {', '.join(SB3_ALGOS.values())})")
+        if pink and algo != "sac":
+            raise ConfigError(f"pink noise's SB3 peer is SAC's (sb3-sac-pink), not {algo}'s")
         self.algo = algo
-        self.name = f"sb3-{algo}"
+        self.pink = pink
+        self.name = "sb3-sac-pink" if pink else f"sb3-{algo}"
         require_sb3(self.name)
         if config.run.algo != self.name:
             config = dataclasses.replace(config, run=dataclasses.replace(config.run, algo=self.name))
@@ -305,7 +334,17 @@ class _SB3Run(RunBookkeeping):
         if checkpoint.get("sb3", {}).get("format") != _SB3_FORMAT:
             raise RunDirectoryError(f"{self.dir.latest_path} is not a Stable-Baselines3 run's checkpoint")
 
-    def _build(self, venv: Any, settings: SB3Settings, checkpoint: dict[str, Any] | None) -> Any:
+    def _build(
+        self, venv: Any, settings: SB3Settings, checkpoint: dict[str, Any] | None, seq_len: int
+    ) -> Any:
+        model = self._build_model(venv, settings, checkpoint)
+        if self.pink:
+            use_pink_noise(model, seq_len, self.config.run.seed)
+            if checkpoint is not None:
+                _restore_pink_state(model, checkpoint["sb3"]["pink"])
+        return model
+
+    def _build_model(self, venv: Any, settings: SB3Settings, checkpoint: dict[str, Any] | None) -> Any:
         cfg = self.config.run
         if checkpoint is None:
             return make_model(settings, self.algo, venv, seed=cfg.seed, device=cfg.device)
@@ -375,6 +414,7 @@ class _SB3Run(RunBookkeeping):
                     "version": _sb3_version(),
                     "rollout": {"steps": int(rollout[0]), "episodes": int(rollout[1])},
                     "sde": _sde_state(model),
+                    **({"pink": _pink_state(model)} if self.pink else {}),
                 },
                 "rng": {
                     "torch": torch.get_rng_state(),
@@ -421,7 +461,7 @@ class _SB3Run(RunBookkeeping):
         self.eval_env: Any = None
         try:
             settings = sb3_settings(cfg, self.algo, adapted.spec)
-            model = self._build(venv, settings, checkpoint)
+            model = self._build(venv, settings, checkpoint, episode_limit(env) or DEFAULT_SEQ_LEN)
             self._write_hyperparams(settings, model)
             continuation = None
             if checkpoint is not None:
@@ -638,29 +678,31 @@ def train_sb3(
     on_episode: EpisodeCallback | None = None,
     should_stop: Callable[[], bool] | None = None,
     command: str | None = None,
+    pink: bool = False,
 ) -> dict[str, Any]:
     """Train SB3 ``algo`` (``sac``, ``td3`` or ``ddpg``) into ``run_dir`` (or continue it); returns the
-    summary.
+    summary. ``pink=True`` (SAC only): ``sb3-sac-pink``, the actor sampling through ``PinkNoiseDist``.
 
     Same contract as :func:`core.runs.trainer.train` (see the module docstring); ``config.run.algo`` is set to
     ``sb3-<algo>``. Raises ExperimentError (one line) when Stable-Baselines3 is not installed, or when
     ``agent.sb3_hyperparams=zoo`` and RL Zoo has no usable entry for ``env.id``.
     """
-    return _SB3Run(config, Path(run_dir), algo, resume, on_episode, should_stop, command).run()
+    return _SB3Run(config, Path(run_dir), algo, resume, on_episode, should_stop, command, pink).run()
 
 
 # -- the experiment runner's cell runner ------------------------------------------------------
 
 
 class SB3Runner(ConfigCellRunner):
-    """Cells of ``sb3-sac`` / ``sb3-td3`` / ``sb3-ddpg``: ``core.config`` (profile → overrides → the cell's
-    keys, as for every method) + :func:`train_sb3`. ``run.algo`` is the SB3 name (not in
-    ``core.runs.methods``). With ``agent.sb3_hyperparams=zoo`` the zoo's entry for the env is checked here,
-    so a task without one fails before anything is written."""
+    """Cells of ``sb3-sac`` / ``sb3-td3`` / ``sb3-ddpg`` / ``sb3-sac-pink``: ``core.config`` (profile →
+    overrides → the cell's keys, as for every method) + :func:`train_sb3`. ``run.algo`` is the SB3 name
+    (not in ``core.runs.methods``). With ``agent.sb3_hyperparams=zoo`` the zoo's entry for the env is checked
+    here, so a task without one fails before anything is written."""
 
     def __init__(self, name: str) -> None:
         self.name = name
         self.algo = SB3_ALGOS[name]
+        self.pink = name in PINK_PEERS
 
     def resolve(self, spec: ExperimentSpec, method: MethodSpec, reward: str, seed: int) -> dict[str, Any]:
         from core.config import load_config
@@ -683,4 +725,4 @@ class SB3Runner(ConfigCellRunner):
         return self._checked_config(method, reward, build)
 
     def training_function(self) -> Callable[..., dict[str, Any]]:
-        return functools.partial(train_sb3, algo=self.algo)
+        return functools.partial(train_sb3, algo=self.algo, pink=self.pink)

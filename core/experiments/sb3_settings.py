@@ -11,6 +11,10 @@ extractor of images), the constructor arguments of a named setting, and their re
   gives ``[256, 256]`` only with its own ``NatureCNN``, so our image extractor gets ``[400, 300]`` heads too).
 * ``zoo`` — RL Baselines3 Zoo's published hyperparameters for ``env.id`` (:mod:`core.experiments.sb3_zoo`).
 
+``sb3-sac-pink`` is ``sb3-sac`` with one change, the package ``pink-noise-rl``'s example for SAC (Eberhard et
+al., ICLR 2023): ``model.actor.action_dist = PinkNoiseDist(seq_len, action_dim)`` with ``seq_len`` the env's
+step limit (:func:`use_pink_noise`; the generator is seeded with ``run.seed``). Either setting applies.
+
 :func:`make_model` builds the SB3 model; :func:`hyperparams_record` is what the run writes to
 ``sb3_hyperparams.json``: the setting, its source, the arguments given and the values the built model
 uses (SB3's defaults filled in), so a report can cite them.
@@ -42,8 +46,16 @@ except ImportError:  # pragma: no cover - exercised only where the bench extra i
             require_sb3("sb3-sac")
 
 
-SB3_ALGOS: dict[str, str] = {"sb3-sac": "sac", "sb3-td3": "td3", "sb3-ddpg": "ddpg"}
+SB3_ALGOS: dict[str, str] = {"sb3-sac": "sac", "sb3-td3": "td3", "sb3-ddpg": "ddpg", "sb3-sac-pink": "sac"}
 """Experiment-runner algo name → SB3 algorithm (``train_sb3``'s ``algo``)."""
+
+PINK_PEERS: frozenset[str] = frozenset({"sb3-sac-pink"})
+"""The peers whose actor samples through ``pink-noise-rl``'s ``PinkNoiseDist`` (:func:`use_pink_noise`)."""
+
+PINK_NOTE = (
+    "pink.PinkNoiseDist(seq_len, action_dim, rng=numpy.random.default_rng(run.seed)) as the SAC actor's "
+    "action_dist, seq_len = the env's step limit (pink-noise-rl's example); the only difference from sb3-sac"
+)
 
 NON_DEFAULTS: dict[str, str] = {
     "learning_starts": "config.agent.learning_starts (ours: 500; SB3: 100) — the same warm-up budget",
@@ -213,6 +225,19 @@ def _dualsys_settings(config: Config, algo: str, spec: EnvSpec) -> SB3Settings:
     )
 
 
+def use_pink_noise(model: Any, seq_len: int, seed: int) -> Any:
+    """Give SB3 SAC ``model`` the package's pink-noise distribution, as its example does:
+    ``model.actor.action_dist = PinkNoiseDist(seq_len, action_dim)`` (2.0.1's argument order), with a
+    generator seeded by ``seed`` so that a run is reproducible. Returns the distribution."""
+    from pink import PinkNoiseDist
+
+    if getattr(model, "use_sde", False):
+        raise ConfigError("sb3-sac-pink replaces SAC's squashed Gaussian; this setting uses gSDE (use_sde)")
+    action_dim = int(model.action_space.shape[-1])
+    model.actor.action_dist = PinkNoiseDist(int(seq_len), action_dim, rng=np.random.default_rng(seed))
+    return model.actor.action_dist
+
+
 def algorithm_class(algo: str) -> Any:
     """SB3's ``SAC``, ``TD3`` or ``DDPG``."""
     import stable_baselines3
@@ -299,6 +324,15 @@ def hyperparams_record(settings: SB3Settings, algo: str, model: Any, config: Con
         "used": used,
         "net_arch": nets,
     }
+    dist = getattr(getattr(model, "actor", None), "action_dist", None)
+    if type(dist).__name__ == "PinkNoiseDist":
+        record["algo"] = "sb3-sac-pink"
+        record["action_dist"] = {
+            "class": f"{type(dist).__module__}.{type(dist).__qualname__}",
+            "seq_len": int(dist.gen.time_steps),
+            "action_dim": int(dist.action_dim),
+            "note": PINK_NOTE,
+        }
     if settings.zoo_entry is not None:
         record["zoo_entry"] = describe(settings.zoo_entry)
         record["zoo_unused"] = {key: describe(value) for key, value in settings.unused.items()}

@@ -36,6 +36,7 @@ import torch
 from core.config import AgentConfig, Config
 from core.envs.spec import EnvSpec
 from core.modelfree.learners import Learner, make_learner
+from core.modelfree.noise import resolve_noise
 from core.modelfree.replay import PixelReplay
 
 B = TypeVar("B", bound=tuple)
@@ -136,7 +137,8 @@ class LearnerAgent:
         self.spec = spec
         self.rng = rng
         self.device = torch.device(config.run.device)
-        self.learner = make_learner(config.net, config.agent, spec).to(self.device)
+        # pink noise's sequence length is the env's episode length (resolve_noise; other noises: as given)
+        self.learner = make_learner(config.net, resolve_noise(config), spec).to(self.device)
         self.schedule = UpdateSchedule(config.agent)
         self.steps = 0
         """Training environment steps observed (drives noise annealing and learning_starts)."""

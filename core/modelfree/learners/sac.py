@@ -12,6 +12,9 @@ encoder τ (``agent.encoder_tau``).
 * Targets: encoder and critics move by τ after every update (no target actor in SAC).
 * Exploration: a sample of π. Around a chosen action a* (the dual system's planner), the same Gaussian is
   re-centred on it: a = tanh(atanh(a*) + σ(φ) ε), which is exactly π's sample when a* = tanh(m(φ)).
+  ε ~ N(0, I) i.i.d.; with ``agent.noise = pink``, ε is the next value of ``pink-noise-rl``'s pink process
+  (a new sequence every episode, ``core.modelfree.noise.PinkNoise`` at σ = 1), as the package's
+  ``PinkNoiseDist`` samples a = tanh(m + σ ε_pink). Acting only: the updates sample π i.i.d.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from core.config import AgentConfig, NetConfig
 from core.envs.spec import EnvSpec
 from core.modelfree.learners.base import ActorUpdateResult, Learner, frozen
 from core.modelfree.networks import SquashedGaussianActor, TwinCritic
-from core.modelfree.noise import uniform_warmup
+from core.modelfree.noise import PinkNoise, make_noise, uniform_warmup
 
 ATANH_LIMIT = 1.0 - 1e-6
 """Chosen actions are clipped to ±this before atanh (a saturated plan stays finite)."""
@@ -47,15 +50,24 @@ class SAC(Learner):
         self.target_entropy = (
             -float(spec.action_dim) if agent.target_entropy is None else float(agent.target_entropy)
         )
+        self.pink: PinkNoise | None = None
+        """The pink process of acting's ε (``agent.noise = pink``); None: i.i.d. N(0, I)."""
+        if agent.noise == "pink":
+            self.pink = make_noise(agent, spec.action_dim)  # type: ignore[assignment]
 
     @property
     def alpha(self) -> float:
         return float(self.log_alpha.detach().exp())
 
+    def begin_episode(self) -> None:
+        if self.pink is not None:
+            self.pink.reset()
+
     def explore(
         self, action: np.ndarray, latent: torch.Tensor, step: int, rng: np.random.Generator
     ) -> np.ndarray:
-        """tanh(atanh(a*) + σ(φ) ε) with ε from the agent's generator: π's sample when a* is its mean."""
+        """tanh(atanh(a*) + σ(φ) ε) with ε from the agent's generator (i.i.d., or the pink process's next
+        value): π's sample when a* is its mean."""
         warmup = uniform_warmup(self.agent_config, step, self.action_dim, rng)
         if warmup is not None:
             return warmup
@@ -63,7 +75,15 @@ class SAC(Learner):
             _, log_std = self.actor.distribution(latent.reshape(1, -1))
         std = log_std[0].exp().numpy().astype(np.float64)
         centre = np.arctanh(np.clip(action.astype(np.float64), -ATANH_LIMIT, ATANH_LIMIT))
-        return np.tanh(centre + std * rng.normal(size=centre.shape)).astype(np.float32)
+        eps = rng.normal(size=centre.shape) if self.pink is None else self.pink.sample(rng)
+        return np.tanh(centre + std * eps).astype(np.float32)
+
+    def extra_state(self) -> dict:
+        return {} if self.pink is None else {"noise": self.pink.state()}
+
+    def load_extra_state(self, state: dict) -> None:
+        if self.pink is not None:
+            self.pink.load_state(state.get("noise", []))
 
     @torch.no_grad()
     def bootstrap(self, next_latent: torch.Tensor) -> torch.Tensor:

@@ -192,7 +192,8 @@ class AgentConfig:
     batch_size: int = 64
     """Minibatch size sampled from the pixel replay buffer."""
     buffer_size: int = 100_000
-    """Pixel replay capacity in transitions."""
+    """Capacity of the replay of real transitions, for every method: B of Alg. 2, B_pixel of Alg. 3 (the paper
+    gives I2A's B_pixel 60k beside the others' 100k; the two differ only once a run has 60k real steps)."""
     learning_starts: int = 500
     """Environment steps collected before the first update."""
     update_schedule: Literal["per_step", "per_episode"] = "per_step"
@@ -269,9 +270,8 @@ class DualConfig:
     e_max_relative: float | None = None
     """Scale-free e_max (dual/itm_resolution.py): when set to ρ, e_max = ρ · the median pairwise L2 distance
     among 256 of the last 2048 latents, refreshed every 256 states; None: absolute e_max (paper, released).
-    It is the raw latent's scale-free resolution (the first study's ablation): set, it puts the map in raw
-    latent coordinates whatever ``regions`` says (so it is meant with ``regions`` paper or released; the REST
-    schema, which states no rule between fields, accepts it with any reading)."""
+    It is the raw latent's scale-free resolution (the first study's ablation), so it needs ``regions`` paper
+    or released: with ``repaired`` (a normalised map) it is refused (`check_dual_combinations`)."""
     reliability: Literal["paper", "released", "repaired"] = "repaired"
     """Arbitration's reliability and Eq. 8-9 (Section 2.3.2): paper — LP ≥ 0 of squared errors, unnormalised,
     a new node unreliable until W+1 means exist; released — LP ≥ 0 of error norms, LP divided by the max
@@ -298,7 +298,8 @@ class DualConfig:
     model_batch: int = 16
     """Samples per local-model update: the new transition and the node's recent ones (paper, released: 1)."""
     model_memory: int = 256
-    """Real transitions kept per node; each update samples ``model_batch − 1`` of them (0: the newest)."""
+    """Real transitions kept per node; each update samples ``model_batch − 1`` of them (0: the newest). Must
+    be 0 or at least ``model_batch − 1``, and 0 with ``model_batch = 1`` (`check_dual_combinations`)."""
     refit_every: int = 25
     """Refit the local models every N real steps on ``refit_batch`` replayed transitions re-encoded by the
     current encoder, each to its nearest node (core/dual/world_models.py ``refit``). 0: never (paper)."""
@@ -306,8 +307,9 @@ class DualConfig:
     """Transitions per refit step (one Eq. 5 Adam step of each node the batch touches)."""
     arbitration: Literal["lp", "model_free"] = "lp"
     """Meta-controller: reliability-based arbitration (Alg. 2 lines 12-19, by ``reliability``), or
-    ``model_free`` — an ablation that always acts with μ(φ) (no MPC, no I2A imagination), keeping regions,
-    local models and r_int."""
+    ``model_free`` — an ablation that always acts with μ(φ) (no MPC), keeping regions, local models and r_int.
+    Refused with ``--algo i2a`` (`check_dual_combinations`): I2A without its planner is no method of the
+    paper."""
     planner: Literal["paper", "released", "repaired"] = "repaired"
     """Gradient MPC (Eq. 6-7): paper — (R* − Σ r̂)², plain gradient steps, only the executed action clipped;
     released — ½ Σ (1 − r̂)² otherwise as paper; repaired — (R* − Σ r̂)², the gradient scaled to length
@@ -336,8 +338,6 @@ class DualConfig:
     """The gate keeps a transition with probability clip(1 − ratio / this, 0, 1): none from a node whose
     held-out error is at or above this fraction of the no-change error (1: the gate as first built; 0.5 chosen
     on MountainCar tuning seeds 100-102, docs/dual-system.md "Imagination in the loop")."""
-    pixel_buffer_size: int = 60_000
-    """I2A pixel replay capacity B_pixel."""
     latent_buffer_size: int = 200_000
     """I2A latent replay capacity B_latent."""
     latent_batch_size: int = 64
@@ -493,13 +493,6 @@ def _paper_dual() -> DualConfig:
     )
 
 
-PAPER_DUAL_OVERRIDES: tuple[str, ...] = tuple(
-    f"dual.{f.name}={getattr(_paper_dual(), f.name)}"
-    for f in dataclasses.fields(DualConfig)
-    if getattr(_paper_dual(), f.name) != getattr(DualConfig(), f.name)
-)
-"""``dual.<field>=<value>`` for every field where the paper's dual section differs from the default's: a
-default-profile run with these overrides has the literal dual reading and the default's everything else."""
 
 def _vector_profile() -> Config:
     """The default profile for tasks with vector observations (``dualsys train --profile auto`` picks it for
@@ -703,7 +696,6 @@ _POSITIVE_INTS = (
     "dual.model_hidden",
     "dual.model_batch",
     "dual.d_max",
-    "dual.pixel_buffer_size",
     "dual.latent_buffer_size",
     "dual.latent_batch_size",
     "dual.refit_batch",
@@ -802,5 +794,32 @@ def check_config(config: Config) -> None:
             f"bad value for env.hand: level {level.name!r} admits {' or '.join(level.hands)}, "
             f"got {config.env.hand!r}"
         )
+    check_dual_combinations(config)
     if config.run.episodes is None and config.run.steps is None and config.run.max_wall_s is None:
         raise ConfigError("the run needs a budget: set run.episodes, run.steps or run.max_wall_s")
+
+
+def check_dual_combinations(config: Config) -> None:
+    """Refuse dual settings that make no sense together, each with a one-line ConfigError naming the fix."""
+    dual = config.dual
+    if dual.e_max_relative is not None and dual.regions == "repaired":
+        raise ConfigError(
+            "dual.e_max_relative is a resolution of the raw latent and dual.regions=repaired normalises it: "
+            "set dual.regions=released (or paper) with it, or drop dual.e_max_relative"
+        )
+    if dual.model_batch == 1 and dual.model_memory != 0:
+        raise ConfigError(
+            "dual.model_memory is the pool each local-model update samples model_batch − 1 transitions from: "
+            "with dual.model_batch=1 set dual.model_memory=0"
+        )
+    if 0 < dual.model_memory < dual.model_batch - 1:
+        raise ConfigError(
+            f"dual.model_memory={dual.model_memory} holds fewer than the dual.model_batch − 1 = "
+            f"{dual.model_batch - 1} older transitions each update takes: set it to 0 (the newest) or >= "
+            f"{dual.model_batch - 1}"
+        )
+    if config.run.algo == "i2a" and dual.arbitration == "model_free":
+        raise ConfigError(
+            "i2a with dual.arbitration=model_free would imagine without the planner it is built on: for the "
+            "dual system without planning use --algo im2c --set dual.arbitration=model_free"
+        )

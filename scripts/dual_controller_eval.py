@@ -45,8 +45,8 @@ class Controller:
 
     def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
         phi = self.agent.encode(obs)
-        node = self.agent.dual.locate(phi)
-        action, _ = self.agent.dual.decide(phi, node, self.agent.actor)
+        start = self.agent.dual.locate(phi)
+        action, _ = self.agent.dual.decide(start, self.agent.actor)
         return np.asarray(action, dtype=np.float32), {}
 
 

@@ -7,7 +7,7 @@ two halves:
 ``record``: run one grid cell's config (a dual-system cell) on a tuning seed and write, in order, everything
 the dual system's world models were given: every φ_t the map saw (``DualSystem.locate``), every real
 transition they learnt from (``DualSystem.learn``) with the grasp's shoulder angle before and after it,
-every refit batch (``DualSystem.refit``), and the seed the world models were built from. It wraps those
+every refit batch (``DualSystem.refit_on``), and the seed the world models were built from. It wraps those
 methods (and ``NicoGraspEnv.step``) from outside, so the run is the same run as without the probe.
 
 ``replay``: feed that stream to `LocalWorldModels` again, offline, under the recorded settings or a
@@ -40,7 +40,8 @@ import numpy as np
 import torch
 
 from core.config import load_config
-from core.dual.dual_system import DualSystem
+from core.dual.dual_system import DualSystem, StepStart
+from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
 from core.envs.nico_grasp import NicoGraspEnv
 from core.runs.trainer import train
@@ -61,7 +62,7 @@ def record(config_path: Path, seed: int, steps: int, out: Path, overrides: list[
     config = load_config("default", [f"run.seed={seed}", f"run.steps={steps}", *overrides], file=config_path)
     events: list[tuple[str, Any]] = []
     initial: dict[str, Any] = {}
-    locate, learn, refit = DualSystem.locate, DualSystem.learn, DualSystem.refit
+    locate, learn, refit = DualSystem.locate, DualSystem.learn, DualSystem.refit_on
     env_step = NicoGraspEnv.step
     shoulder: dict[str, float] = {}
 
@@ -74,15 +75,15 @@ def record(config_path: Path, seed: int, steps: int, out: Path, overrides: list[
         shoulder.update(before=before, after=math.degrees(env._shoulder_angle()))
         return out
 
-    def locate_recorded(dual: DualSystem, phi: torch.Tensor) -> int:
+    def locate_recorded(dual: DualSystem, phi: torch.Tensor) -> StepStart:
         if not initial:
             initial.update(seed=dual.world.bank.generator.initial_seed(), latent_dim=dual.world.latent_dim,
                            action_dim=dual.world.action_dim, regions=dual.world.regions)
         events.append(("locate", phi[0].clone()))
         return locate(dual, phi)
 
-    def learn_recorded(dual: DualSystem, next_phi: torch.Tensor, transition: Any) -> float:
-        r_int = learn(dual, next_phi, transition)
+    def learn_recorded(dual: DualSystem, start: StepStart, next_phi: torch.Tensor, transition: Any) -> float:
+        r_int = learn(dual, start, next_phi, transition)
         events.append(("learn", (next_phi[0].clone(), np.asarray(transition.action, dtype=np.float32),
                                  float(transition.reward), bool(transition.terminated),
                                  dual.counters.errors[-1], dual.counters.naive_errors[-1],
@@ -94,7 +95,7 @@ def record(config_path: Path, seed: int, steps: int, out: Path, overrides: list[
                                  batch.terminated.clone())))
         refit(dual, batch, latents)
 
-    DualSystem.locate, DualSystem.learn, DualSystem.refit = locate_recorded, learn_recorded, refit_recorded
+    DualSystem.locate, DualSystem.learn, DualSystem.refit_on = locate_recorded, learn_recorded, refit_recorded
     NicoGraspEnv.step = step_recorded
     summary = train(config, out, command="dual model error probe")
     with (out / "stream.pkl").open("wb") as f:
@@ -128,7 +129,8 @@ def replay(out: Path, overrides: list[str], variant: str) -> dict[str, Any]:
     dual = load_config("default", overrides, file=out / "config.yaml").dual
     world = LocalWorldModels(dual, stream["latent_dim"],
                              stream["action_dim"], regions=stream["regions"],
-                             generator=torch.Generator().manual_seed(stream["seed"]))
+                             generator=torch.Generator().manual_seed(stream["seed"]),
+                             readings=resolve(dual))
     if variant == "zero_change_head":
         zero_change_head(world)
     rows: list[tuple[float, ...]] = []

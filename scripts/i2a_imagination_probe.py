@@ -101,10 +101,11 @@ def main() -> None:
     config = load_config("default", [f"run.seed={args.seed}", f"run.steps={args.steps}", *args.set],
                          file=args.config)
     records = args.out.with_suffix(".jsonl").open("a")
-    update = base.Learner.update_with_imagination
+    update = base.Learner.update
     count = 0
 
-    def observed(learner: base.Learner, pixel: PixelBatch, latent: LatentBatch | None) -> dict[str, float]:
+    def observed(learner: base.Learner, pixel: PixelBatch,
+                 latent: LatentBatch | None = None) -> dict[str, float]:
         nonlocal count
         count += 1
         if latent is not None and count % args.every == 0:
@@ -113,7 +114,7 @@ def main() -> None:
             records.flush()
         return update(learner, pixel, latent)
 
-    base.Learner.update_with_imagination = observed
+    base.Learner.update = observed
     resume = (args.out / "checkpoints").exists()
     print(train(config, args.out, resume=resume, command="i2a imagination probe"))
 

@@ -6,7 +6,7 @@ Each runs over any learner (``agent.ac``; DDPG as in the paper).
   ``dual.cmc_horizon`` steps whenever the global model is reliable (:func:`make_cmc`).
 * **LA-Imagination** (Section 3; [42]): model-free acting; imagined rollouts that start with probability
   p_n = min(1, c / ⟨e_n⟩) and go on into each next region with that region's p (the error-driven depth), into
-  B_latent (:func:`make_la_imagination`; ``core.dual.imagination.la_imagination_rollout``).
+  B_latent (:func:`make_la_imagination`; ``core.dual.imagination``, the ``la`` rollout stop).
 * **MVE** (Feinberg et al. 2018; our reading in this architecture): model-free acting; the critic's Eq. 1
   target bootstraps not from V(φ′) directly but after H imagined steps of one global latent model M, R under
   the target policy,
@@ -33,6 +33,7 @@ from core.config import Config
 from core.dual.i2a import I2A
 from core.dual.im2c import IM2C
 from core.dual.model_bank import ModelBank
+from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
 from core.envs.spec import EnvSpec
 from core.modelfree.agent import (
@@ -64,7 +65,7 @@ def make_cmc(config: Config, spec: EnvSpec, rng: np.random.Generator) -> IM2C:
 
 def make_la_imagination(config: Config, spec: EnvSpec, rng: np.random.Generator) -> I2A:
     """DDPG+LA-Imagination: model-free acting, error-driven imagined rollouts into B_latent, r_int."""
-    return I2A(config, spec, rng, arbitration=False, imagination="la")
+    return I2A(config, spec, rng, arbitration=False, stop="la")
 
 
 class ValueExpansion:
@@ -100,7 +101,8 @@ class MVE(LearnerAgent):
         self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)
         model_seed = int(rng.integers(0, 2**62))
         self.world = LocalWorldModels(config.dual, self.learner.latent_dim, spec.action_dim, regions=False,
-                                      generator=torch.Generator().manual_seed(model_seed))
+                                      generator=torch.Generator().manual_seed(model_seed),
+                                      readings=resolve(config.dual))
         self.learner.value_expansion = ValueExpansion(self.world.bank, config.dual.fixed_horizon)
         self._errors: list[float] = []
 

@@ -3,9 +3,11 @@
 per-episode diagnostics and what a checkpoint keeps of them.
 
 An agent *holds* a :class:`DualSystem` beside its learner and replay and calls it in its algorithm box's
-order: :meth:`DualSystem.locate` (Alg. 2 lines 10-11), :meth:`DualSystem.decide` (12-19),
-:meth:`DualSystem.learn` (22 and 25, returning r_int for line 23), :meth:`DualSystem.refit_due` /
-:meth:`DualSystem.refit` (the refit repair), :meth:`DualSystem.diagnostics` at each episode's end.
+order: :meth:`DualSystem.locate` (Alg. 2 lines 10-11; it returns the step's start, φ_t and its node n, which
+the agent keeps until the step's transition arrives), :meth:`DualSystem.decide` (12-19),
+:meth:`DualSystem.observe` (22-25: r_int, r = r_ext + r_int into the agent's replay, one Eq. 5 step; and the
+refit repair when due), :meth:`DualSystem.diagnostics` at each episode's end. The readings of every mechanism
+(`core.dual.readings`) are resolved once, here, and handed to the world models and the planner alike.
 
 Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_error`` (mean Eq. 8 error
 of the real transitions), ``no_change_error`` (the same error of the predictor φ̂′ = φ_t, r̂ = 0: the
@@ -22,6 +24,8 @@ before the step).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -30,9 +34,21 @@ import torch
 from core.config import DualConfig
 from core.dual.meta_controller import MetaController
 from core.dual.planning import ActorFn, PlanResult, Rollout
+from core.dual.readings import Readings, resolve
 from core.dual.world_models import LocalWorldModels
 from core.modelfree.agent import Transition
-from core.modelfree.replay import LatentReplay, PixelBatch
+from core.modelfree.replay import PixelBatch, PixelReplay
+
+Encoder = Callable[[torch.Tensor], torch.Tensor]
+"""φ = f(s) of a batch of stored observations, on the CPU, without gradient (the agent's ``encode_batch``)."""
+
+
+@dataclass(frozen=True)
+class StepStart:
+    """Where a real step starts (Alg. 2 lines 9-11): φ_t ``[1, latent]`` and its best-matching node n."""
+
+    phi: torch.Tensor
+    node: int
 
 
 class EpisodeCounters:
@@ -63,34 +79,39 @@ class DualSystem:
         latent_dim: int,
         action_dim: int,
         rng: np.random.Generator,
+        encode: Encoder,
         *,
         regions: bool = True,
         arbitration: bool = True,
         fixed_horizon: int | None = None,
     ) -> None:
         self.config = dual
+        self.readings: Readings = resolve(dual)
+        """Every mechanism's reading, resolved once (``dual.regions``, ``dual.planner``, ...)."""
+        self.rng = rng
+        """The run's generator (the agent's): the refit's replay draws."""
+        self.encode = encode
         model_seed = int(rng.integers(0, 2**62))
         self.world = LocalWorldModels(dual, latent_dim, action_dim, regions=regions,
-                                      generator=torch.Generator().manual_seed(model_seed))
+                                      generator=torch.Generator().manual_seed(model_seed),
+                                      readings=self.readings)
         if dual.arbitration == "model_free":  # ablation: the model-based system is never picked
             arbitration = False
         self.meta = MetaController(self.world, dual, fixed_horizon=fixed_horizon) if arbitration else None
         self.counters = EpisodeCounters()
-        self._phi: torch.Tensor | None = None
-        self._node = 0
         self.total_imagined = 0
         self.total_mb_decisions = 0
         self.total_mf_decisions = 0
 
     # -- acting (Alg. 2 lines 10-19) -------------------------------------------------------------
-    def locate(self, phi: torch.Tensor) -> int:
-        """Lines 10-11: the ITM update with φ_t ``[1, latent]``; the node n it matched. φ_t and n are kept for
-        :meth:`learn` of the same step."""
-        self._phi, self._node = phi, self.world.observe_state(phi[0])
-        return self._node
+    def locate(self, phi: torch.Tensor) -> StepStart:
+        """Lines 10-11: the ITM update with φ_t ``[1, latent]``; the step's start: φ_t and the node n it
+        matched."""
+        return StepStart(phi=phi, node=self.world.observe_state(phi[0]))
 
-    def decide(self, phi: torch.Tensor, node: int, actor: ActorFn) -> tuple[np.ndarray, Rollout | None]:
+    def decide(self, start: StepStart, actor: ActorFn) -> tuple[np.ndarray, Rollout | None]:
         """Lines 12-19: the meta-controller's action before exploration, and its rollout when model-based."""
+        phi, node = start.phi, start.node
         if self.meta is None:
             self._count_model_free()
             return actor(phi)[0].numpy(), None
@@ -115,27 +136,31 @@ class DualSystem:
             self.counters.action_shifts.append(float((plan.action - initial).abs().max()))
 
     def count_imagined(self, count: int) -> None:
+        """``count`` imagined transitions made (I2A's imagination, `core.dual.imagination`)."""
         self.counters.imagined += count
         self.total_imagined += count
 
-    def store_imagined(self, rollout: Rollout | None, latent_replay: LatentReplay) -> None:
-        """Alg. 3 line 17: the rollout's imagined transitions into B_latent."""
-        if rollout is None or rollout.depth == 0:
-            return
-        latent_replay.add_batch(rollout.latents, rollout.actions, rollout.rewards, rollout.next_latents)
-        self.count_imagined(rollout.depth)
-
     # -- observing (Alg. 2 lines 21-25) ----------------------------------------------------------
-    def learn(self, next_phi: torch.Tensor, transition: Transition) -> float:
-        """Lines 22 and 25 for the step :meth:`locate` began: the Eq. 8 error of M_n, R_n before their update,
-        LP of n, one Eq. 5 step; returns r_int of the transition (line 22, ``dual.intrinsic``)."""
-        if self._phi is None:
+    def observe(self, start: StepStart | None, next_phi: torch.Tensor, transition: Transition,
+                replay: PixelReplay, steps: int) -> None:
+        """Lines 22-25 of the step that began at ``start``, given φ_{t+1} (line 21, the agent's encoder):
+        r_int and one Eq. 5 step of M_n, R_n (22, 25); r = r_ext + r_int into ``replay`` (23-24); then, when
+        ``steps`` real steps make it due, the refit repair (`refit`)."""
+        if start is None:
             raise RuntimeError("observe() without a preceding act(obs, explore=True)")
-        phi, reward = self._phi, transition.reward
+        r_int = self.learn(start, next_phi, transition)  # lines 22 and 25
+        replay.add(transition.action, transition.reward + r_int, transition.next_obs,  # lines 23-24
+                   transition.terminated, reward_ext=transition.reward)
+        if self.refit_due(steps):
+            self.refit(replay)
+
+    def learn(self, start: StepStart, next_phi: torch.Tensor, transition: Transition) -> float:
+        """Lines 22 and 25: the Eq. 8 error of M_n, R_n before their update, LP of n, one Eq. 5 step; returns
+        r_int of the transition (line 22, ``dual.intrinsic``)."""
+        phi, reward = start.phi, transition.reward
         action = torch.as_tensor(transition.action, dtype=torch.float32)
-        feedback = self.world.learn_transition(self._node, phi[0], action, reward, next_phi[0],
+        feedback = self.world.learn_transition(start.node, phi[0], action, reward, next_phi[0],
                                                transition.terminated)
-        self._phi = None
         self.counters.errors.append(feedback.error)
         self.counters.naive_errors.append(self._no_change_error(phi, next_phi[0], reward))
         self.counters.intrinsic.append(feedback.intrinsic_reward)
@@ -154,14 +179,19 @@ class DualSystem:
         every = self.config.refit_every
         return bool(every) and steps % every == 0
 
-    def refit(self, batch: PixelBatch, latents: torch.Tensor) -> None:
+    def refit(self, replay: PixelReplay) -> None:
         """Refit the local models to the current encoder's latents.
 
         The encoder keeps training (Eq. 4), so the latents a node's model learned from drift away from what
-        f_ω now produces. Every ``refit_every`` real steps, ``refit_batch`` replayed real transitions
-        (``batch``), re-encoded with the current encoder (``latents``: φ of obs, then of next obs), each take
-        one Eq. 5 step of their nearest node.
+        f_ω now produces. Every ``refit_every`` real steps, ``refit_batch`` replayed real transitions,
+        re-encoded with the current encoder, each take one Eq. 5 step of their nearest node.
         """
+        batch = replay.sample(self.config.refit_batch, self.rng)
+        self.refit_on(batch, self.encode(torch.cat([batch.obs, batch.next_obs])))
+
+    def refit_on(self, batch: PixelBatch, latents: torch.Tensor) -> None:
+        """`refit`'s Eq. 5 steps on the replayed ``batch`` re-encoded as ``latents`` (φ of obs, then of next
+        obs)."""
         count = batch.obs.shape[0]
         errors = self.world.refit(latents[:count], batch.action, batch.reward_ext, latents[count:],
                                   batch.terminated)

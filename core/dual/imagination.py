@@ -1,39 +1,50 @@
-"""Where imagined latent transitions come from: LA-Imagination's rollouts and learn-time imagination.
+"""I2A's imagination (Algorithm 3 lines 13-21 and 35-36), one object chosen once: where imagined latent
+transitions come from, when a rollout stops, and how deep it goes.
 
-The learner learns from them in :meth:`core.modelfree.learners.base.Learner.update_with_imagination`
-(Algorithm 3, lines 34-37); the I2A agent (``core.dual.i2a``) decides which of these feeds it.
+`make_imagination` picks it from the dual system's ``dual.imagination`` reading and the agent's rollout stop;
+the I2A agent (``core.dual.i2a``) asks it twice per step: :meth:`Imagination.after_decide` once after the
+meta-controller's decision (act time) and :meth:`Imagination.minibatch` once per learner update (learn time).
+The learner learns from what it returns in :meth:`core.modelfree.learners.base.Learner.update`.
 
-`la_imagination_rollout` is the imagination of DDPG+LA-Imagination (Section 3; [42]): from φ_t an
-on-policy rollout starts with probability p_n = min(1, c / ⟨e_n⟩), inversely proportional to the
-average error ⟨e_n⟩ of the current region (c = ``dual.imagination_prob_scale``), and continues into
-each next region n_i with that region's p_{n_i} (so the errors of the regions traversed set the depth),
-up to D_max. A region without any recorded error has p = 0.
+- **Where from** (``Imagination.source`` of the reading): `ActTimeImagination` (``paper``, the text and the
+  released code) keeps the act-time rollouts in B_latent (line 17) and samples the latent minibatch from it;
+  `LearnTimeImagination` (``repaired``) stores nothing and rolls out from the pixel minibatch's states,
+  encoded by the current encoder, at every update. With the latter, lines 13-21 of Alg. 3 make only the
+  planner's rollout (Alg. 1), which is not kept.
+- **When a rollout stops** (`RolloutStop`, the agent's method): ``reliable`` — Alg. 1's rule, go on while the
+  region is reliable (I2A); ``la`` — LA-Imagination's, a rollout starts with probability
+  p_n = min(1, c / ⟨e_n⟩) and continues into each next region n_i with that region's p_{n_i}
+  (DDPG+LA-Imagination, Section 3; [42]; c = ``dual.imagination_prob_scale``). A region without any recorded
+  error has p = 0. At act time the reliable rollout is the planner's own (``after_decide``'s ``rollout``); the
+  LA one is drawn there.
+- **How deep**: act time, D_max (the planner's rollouts); learn time, ``dual.imagination_depth`` (None:
+  D_max).
 
-`imagine` is the repair of where imagined transitions come from (``dual.imagination = repaired``,
-docs/dual-system.md, "Imagination"): B_latent keeps the act-time rollouts of Alg. 3 line 17 for the whole run
-(200k rows never wrap in a 12k-step run), so half of every critic and actor batch holds latents of an encoder
-long gone — at the start of training about 100× smaller than now. Instead, at every update the pixel
-minibatch's states are encoded by the current encoder and rolled out from there with the actor and the
-local models, with the same stopping rule as at act time (Alg. 1: go on while the region is reliable;
-LA-Imagination: with probability p_n), and used once. Each imagined transition is kept with the probability
-`LocalWorldModels.imagination_share` of the node that predicted it (`core.dual.readings.Imagination.gate`:
-how much better than "nothing changes" that node's model is on its held-out transitions), and carries
-``done`` from the model's termination head (`Imagination.termination`); a rollout stops after a predicted
-termination.
+Why learn time is the repair (docs/dual-system.md, "Imagination"): B_latent keeps the act-time rollouts for
+the whole run (200k rows never wrap in a 12k-step run), so half of every critic and actor batch holds latents
+of an encoder long gone — at the start of training about 100× smaller than now. At learn time each imagined
+transition is kept with the probability `LocalWorldModels.imagination_share` of the node that predicted it
+(`core.dual.readings.Imagination.gate`: how much better than "nothing changes" that node's model is on its
+held-out transitions), and carries ``done`` from the model's termination head
+(`core.dual.readings.Imagination.termination`); a rollout stops after a predicted termination.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Literal, Protocol
+from typing import Any, Literal, Protocol
 
 import numpy as np
 import torch
 
+from core.dual.dual_system import DualSystem, Encoder, StepStart
 from core.dual.model_bank import ModelPrediction
 from core.dual.planning import ActorFn, Rollout, model_rollout
 from core.dual.world_models import LocalWorldModels
-from core.modelfree.replay import LatentBatch
+from core.modelfree.replay import LatentBatch, LatentReplay
+
+RolloutStop = Literal["reliable", "la"]
+"""When an imagined rollout stops: Alg. 1's reliability rule (I2A) or LA-Imagination's error-driven one."""
 
 
 def imagination_probability(world: LocalWorldModels, node: int, scale: float) -> float:
@@ -90,7 +101,7 @@ class RegionModels:
         self,
         world: LocalWorldModels,
         rng: np.random.Generator,
-        stop: Literal["reliable", "la"] = "reliable",
+        stop: RolloutStop = "reliable",
         la_scale: float = 1.0,
     ) -> None:
         self.world, self.rng, self.stop, self.la_scale = world, rng, stop, la_scale
@@ -161,3 +172,96 @@ def imagine(
         latent, action, reward = latent[chosen], action[chosen], reward[chosen]
         next_latent, done = next_latent[chosen], done[chosen]
     return LatentBatch(latent=latent, action=action, reward=reward, next_latent=next_latent, done=done)
+
+
+class Imagination(Protocol):
+    """I2A's imagination (module docstring): what the agent asks after each decision and at each update."""
+
+    def after_decide(self, start: StepStart, rollout: Rollout | None) -> None:
+        """Act time (Alg. 3 lines 13-21), after the meta-controller's decision from ``start``; ``rollout`` is
+        the planner's model-based rollout (None when the model-free system acted)."""
+        ...
+
+    def minibatch(self, obs: torch.Tensor) -> LatentBatch | None:
+        """The latent minibatch of one update (lines 35-36) beside the pixel minibatch of states ``obs``."""
+        ...
+
+    def diagnostics(self) -> dict[str, float]: ...
+
+    def replay_state_dict(self) -> dict[str, Any]: ...
+
+    def load_replay_state_dict(self, state: dict[str, Any]) -> None: ...
+
+
+class ActTimeImagination:
+    """The ``paper`` reading: act-time rollouts into B_latent (line 17), latent minibatches drawn from it."""
+
+    def __init__(self, dual: DualSystem, actor: ActorFn, rng: np.random.Generator, stop: RolloutStop,
+                 latent_dim: int, action_dim: int) -> None:
+        config = dual.config
+        self.dual, self.actor, self.rng, self.stop = dual, actor, rng, stop
+        self.d_max, self.la_scale = config.d_max, config.imagination_prob_scale
+        self.batch_size = config.latent_batch_size
+        self.replay = LatentReplay(config.latent_buffer_size, latent_dim, action_dim)  # B_latent, line 5
+
+    def after_decide(self, start: StepStart, rollout: Rollout | None) -> None:
+        if self.stop == "la":
+            rollout = la_imagination_rollout(start.phi, start.node, self.dual.world, self.actor, self.d_max,
+                                             self.la_scale, self.rng)
+        if rollout is None or rollout.depth == 0:
+            return
+        self.replay.add_batch(rollout.latents, rollout.actions, rollout.rewards, rollout.next_latents)  # 17
+        self.dual.count_imagined(rollout.depth)
+
+    def minibatch(self, obs: torch.Tensor) -> LatentBatch | None:
+        if len(self.replay) == 0:
+            return None
+        return self.replay.sample(self.batch_size, self.rng)
+
+    def diagnostics(self) -> dict[str, float]:
+        return {"charts/latent_replay_size": float(len(self.replay))}
+
+    def replay_state_dict(self) -> dict[str, Any]:
+        return {"latent": self.replay.state_dict()}
+
+    def load_replay_state_dict(self, state: dict[str, Any]) -> None:
+        self.replay.load_state_dict(state["latent"])
+
+
+class LearnTimeImagination:
+    """The ``repaired`` readings: rollouts from each pixel minibatch's states, encoded by the current encoder,
+    at most ``dual.imagination_depth`` (None: D_max) model steps, gated, used once (`imagine`)."""
+
+    def __init__(self, dual: DualSystem, actor: ActorFn, rng: np.random.Generator, stop: RolloutStop,
+                 encode: Encoder) -> None:
+        config = dual.config
+        self.dual, self.actor, self.rng, self.encode = dual, actor, rng, encode
+        self.model = RegionModels(dual.world, rng, stop=stop, la_scale=config.imagination_prob_scale)
+        self.depth = config.d_max if config.imagination_depth is None else config.imagination_depth
+        self.limit = config.latent_batch_size
+
+    def after_decide(self, start: StepStart, rollout: Rollout | None) -> None:
+        """Nothing is kept at act time: the planner's rollout served its decision."""
+
+    def minibatch(self, obs: torch.Tensor) -> LatentBatch | None:
+        latent = imagine(self.encode(obs), self.model, self.actor, self.depth, self.rng, self.limit)
+        self.dual.count_imagined(0 if latent is None else latent.latent.shape[0])
+        return latent
+
+    def diagnostics(self) -> dict[str, float]:
+        return {}
+
+    def replay_state_dict(self) -> dict[str, Any]:
+        return {}
+
+    def load_replay_state_dict(self, state: dict[str, Any]) -> None:
+        """Nothing stored (a checkpoint of an older run may hold an unused B_latent: ignored)."""
+
+
+def make_imagination(dual: DualSystem, actor: ActorFn, rng: np.random.Generator, stop: RolloutStop,
+                     encode: Encoder, latent_dim: int, action_dim: int) -> Imagination:
+    """The imagination of ``dual``'s reading (``dual.imagination``) and the rollout ``stop``, chosen once."""
+    if dual.readings.imagination.at_learn_time:
+        return LearnTimeImagination(dual, actor, rng, stop, encode)
+    return ActTimeImagination(dual, actor, rng, stop, latent_dim, action_dim)
+

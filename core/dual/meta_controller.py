@@ -25,7 +25,6 @@ import torch
 
 from core.config import DualConfig
 from core.dual.planning import ActorFn, PlanResult, Rollout, model_rollout, optimise_plan
-from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
 
 
@@ -49,8 +48,8 @@ class MetaController:
             raise ValueError(f"fixed horizon must be >= 0, got {fixed_horizon}")
         self.world = world
         self.config = dual
-        self.planner = resolve(dual).planner
-        """Eq. 6-7's reading (``dual.planner``, `core.dual.readings.Planner`)."""
+        self.planner = world.readings.planner
+        """Eq. 6-7's reading: the world models' readings, resolved once where the dual system is built."""
         self.fixed_horizon = fixed_horizon
 
     def rollout(self, phi: torch.Tensor, node: int, actor: ActorFn) -> Rollout:
@@ -71,8 +70,7 @@ class MetaController:
             rollout = self.rollout(phi, node, actor)
             if rollout.depth > 0:
                 cfg = self.config
-                plan = optimise_plan(phi, rollout, self.world.bank, steps=cfg.plan_steps, lr=cfg.plan_lr,
-                                     objective=self.planner.objective, r_star=cfg.r_star,
-                                     optimiser=self.planner.optimiser, clip=self.planner.clip)
+                plan = optimise_plan(phi, rollout, self.world.bank, self.planner, steps=cfg.plan_steps,
+                                     lr=cfg.plan_lr, r_star=cfg.r_star)
                 return MetaDecision(action=plan.action, model_based=True, rollout=rollout, plan=plan)
         return MetaDecision(action=actor(phi)[0], model_based=False)

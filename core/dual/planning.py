@@ -1,10 +1,11 @@
-"""Model-based control: adaptive planning depth (Algorithm 1) and gradient MPC (Eq. 6-7).
+"""Model-based control: the model rollout of Algorithm 1 and gradient MPC (Eq. 6-7).
 
-`plan_depth` rolls the actor μ and the local world models out from φ_t: at each step it checks the
-learning progress of the node the current (predicted) latent falls in, stops at the first node with
-LP < 0 (or no LP yet) or at D_max, and otherwise predicts (â_i, r̂_i, φ̂_{i+1}) with that node's
-model. The rollout it returns is both the horizon H = i − t (Alg. 1 line 8) and the imagined
-transitions (φ_i, â_i, r̂_i, φ̂_{i+1}) that I2A stores in B_latent (Alg. 3 lines 13-21).
+`model_rollout` rolls the actor μ and the local world models out from φ_t: before each step a stopping rule
+reads the node the current (predicted) latent falls in (Alg. 1: go on while that node is reliable, at most
+D_max steps; `core.dual.meta_controller.MetaController.rollout`), and otherwise predicts
+(â_i, r̂_i, φ̂_{i+1}) with that node's model. The rollout it returns is both the horizon H = i − t (Alg. 1
+line 8) and the imagined transitions (φ_i, â_i, r̂_i, φ̂_{i+1}) that I2A may store in B_latent (Alg. 3
+lines 13-21, `core.dual.imagination`).
 
 `optimise_plan` takes the rollout's actions as the initial plan â^(0) and performs K steps of plain
 gradient descent (Eq. 7) with α_plan on
@@ -21,33 +22,62 @@ which costs a few dozen small matrix products instead of an autograd graph per s
 autograd through the same forward pass.
 
 Agents act in a normalised action space, [−1, 1]^d (the environment boundary rescales), so the plan's bounds
-are [−1, 1]. Two readings of Eq. 7 (docs/dual-system.md, "Planner"):
+are [−1, 1]. The planner's reading (``dual.planner``, `core.dual.readings.Planner`) selects the objective
+(`OBJECTIVES`) and the step (`STEPS`) once per plan (docs/dual-system.md, "Planner"):
 
 - ``optimiser="sgd"``, ``clip="executed"`` (paper): plain steps of α_plan; only the executed first action
   is clipped to the bounds;
-- ``optimiser="normalised"`` (the gradient scaled to length α over the whole plan) or ``"adam"`` (Adam on
-  the plan, each action moves by about α per step), with α in action units, and ``clip="every_step"``:
-  every action of the plan is projected onto the bounds after every step (projected gradient descent), so
-  the later steps of the plan are optimised for actions that can be executed.
+- ``optimiser="normalised"``: the gradient scaled to length α over the whole plan (α in action units), and
+  ``clip="every_step"``: every action of the plan is projected onto the bounds after every step (projected
+  gradient descent), so the later steps of the plan are optimised for actions that can be executed.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 import torch
 
-from core.dual.itm import InstantaneousTopologicalMap
-from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
+from core.dual.readings import Planner
 
-PlanObjective = Literal["sum", "per_step"]
-PlanOptimiser = Literal["sgd", "normalised", "adam"]
-PlanClip = Literal["executed", "every_step"]
 ActorFn = Callable[[torch.Tensor], torch.Tensor]
+ObjectiveFn = Callable[[np.ndarray, float], tuple[float, np.ndarray]]
+"""L_plan of the plan's predicted rewards r̂ ``[H]`` and R*: (loss, dL/dr̂ ``[H]``)."""
+StepFn = Callable[[np.ndarray, np.ndarray, float], None]
+"""One Eq. 7 step on the plan ``[H, action]`` (in place) from its gradient, with α."""
+
+
+def sum_objective(rewards: np.ndarray, r_star: float) -> tuple[float, np.ndarray]:
+    """Eq. 6 as printed: L_plan = (R* − Σ_h r̂_h)²."""
+    residual = r_star - rewards.sum()
+    return residual * residual, np.full(rewards.shape[0], -2.0 * residual)
+
+
+def per_step_objective(rewards: np.ndarray, r_star: float) -> tuple[float, np.ndarray]:
+    """The released code's L_plan = ½ Σ_h (R* − r̂_h)² (R* = 1 there)."""
+    residual = r_star - rewards
+    return 0.5 * float(residual @ residual), -residual
+
+
+def sgd_step(plan: np.ndarray, grad: np.ndarray, lr: float) -> None:
+    """Eq. 7 as printed: â ← â − α ∇L_plan."""
+    plan -= lr * grad
+
+
+def normalised_step(plan: np.ndarray, grad: np.ndarray, lr: float) -> None:
+    """The repaired step: the gradient scaled to length α over the whole plan (a step in action units)."""
+    norm = float(np.sqrt((grad * grad).sum()))
+    if norm > 0.0:
+        plan -= lr * grad / norm
+
+
+OBJECTIVES: dict[str, ObjectiveFn] = {"sum": sum_objective, "per_step": per_step_objective}
+"""`Planner.objective` → its L_plan."""
+STEPS: dict[str, StepFn] = {"sgd": sgd_step, "normalised": normalised_step}
+"""`Planner.optimiser` → its Eq. 7 step."""
 
 
 @dataclass(frozen=True)
@@ -133,68 +163,32 @@ def model_rollout(
     )
 
 
-def plan_depth(
-    phi: torch.Tensor,
-    node: int,
-    lp: LearningProgress,
-    itm: InstantaneousTopologicalMap,
-    bank: ModelBank,
-    actor: ActorFn,
-    d_max: int,
-) -> Rollout:
-    """Algorithm 1 (with Alg. 3 lines 13-21): roll out while LP_{i,n} ≥ 0 and i < D_max."""
-    if d_max < 0:
-        raise ValueError(f"d_max must be >= 0, got {d_max}")
-    return model_rollout(
-        phi, node, bank, actor, d_max,
-        continue_at=lambda _i, n: bool(lp.reliable(n)[0]),
-        locate=lambda latent: int(itm.nearest(latent)[0]),
-    )
-
-
 def optimise_plan(
     phi: torch.Tensor,
     rollout: Rollout,
     bank: ModelBank,
+    planner: Planner,
     steps: int = 10,
     lr: float = 1e-3,
-    objective: PlanObjective = "sum",
     r_star: float = 1.0,
-    optimiser: PlanOptimiser = "sgd",
-    clip: PlanClip = "executed",
 ) -> PlanResult:
-    """Eq. 7: K steps on L_plan from the rollout's actions (plain, normalised or Adam; module docstring)."""
-    if objective not in ("sum", "per_step"):
-        raise ValueError(f"plan objective must be 'sum' or 'per_step', got {objective!r}")
-    if optimiser not in ("sgd", "normalised", "adam"):
-        raise ValueError(f"plan optimiser must be 'sgd', 'normalised' or 'adam', got {optimiser!r}")
-    if clip not in ("executed", "every_step"):
-        raise ValueError(f"plan clip must be 'executed' or 'every_step', got {clip!r}")
+    """Eq. 7: K steps on L_plan from the rollout's actions, as ``planner`` reads them (module docstring)."""
     if rollout.depth == 0:
         raise ValueError("optimise_plan needs a rollout of depth >= 1 (the meta-controller chose model-free)")
+    objective, step = OBJECTIVES[planner.objective], STEPS[planner.optimiser]
+    project = planner.clip == "every_step"
     model = _PlanModel(bank, rollout.nodes)
     start = torch.as_tensor(phi, dtype=torch.float64).reshape(-1).numpy()
     plan = rollout.actions.detach().to(torch.float64).numpy().copy()
-    if clip == "every_step":
+    if project:
         np.clip(plan, -1.0, 1.0, out=plan)
-    first = np.zeros_like(plan)
-    second = np.zeros_like(plan)
     initial_loss = None
-    for k in range(1, steps + 1):
+    for _ in range(steps):
         loss, grad = model.loss_and_grad(start, plan, objective, r_star)
         if initial_loss is None:
             initial_loss = loss
-        if optimiser == "sgd":
-            plan -= lr * grad
-        elif optimiser == "normalised":
-            norm = float(np.sqrt((grad * grad).sum()))
-            if norm > 0.0:
-                plan -= lr * grad / norm
-        else:  # Adam on the plan (β = 0.9, 0.999), bias-corrected
-            first = 0.9 * first + 0.1 * grad
-            second = 0.999 * second + 0.001 * grad * grad
-            plan -= lr * (first / (1.0 - 0.9**k)) / (np.sqrt(second / (1.0 - 0.999**k)) + 1e-8)
-        if clip == "every_step":
+        step(plan, grad, lr)
+        if project:
             np.clip(plan, -1.0, 1.0, out=plan)
     final_loss, _ = model.loss_and_grad(start, plan, objective, r_star)
     if initial_loss is None:
@@ -220,7 +214,7 @@ class _PlanModel:
         self.latent_dim = bank.latent_dim
 
     def loss_and_grad(
-        self, phi: np.ndarray, plan: np.ndarray, objective: PlanObjective, r_star: float
+        self, phi: np.ndarray, plan: np.ndarray, objective: ObjectiveFn, r_star: float
     ) -> tuple[float, np.ndarray]:
         horizon = plan.shape[0]
         model, d = self.model, self.latent_dim
@@ -232,14 +226,7 @@ class _PlanModel:
             passes.append(out)
             rewards[h] = out.reward
             current = out.latent
-        if objective == "sum":
-            residual = r_star - rewards.sum()
-            loss = residual * residual
-            d_rewards = np.full(horizon, -2.0 * residual)
-        else:
-            residual = r_star - rewards
-            loss = 0.5 * float(residual @ residual)
-            d_rewards = -residual
+        loss, d_rewards = objective(rewards, r_star)
         grad = np.empty_like(plan)
         d_next = np.zeros(d)  # dL/dφ̂_{h+1}, flowing back from later steps
         for h in reversed(range(horizon)):

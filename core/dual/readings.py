@@ -58,6 +58,11 @@ class Regions:
     space: Literal["latent", "normalised"]
     distance: Literal["l2", "squared"]
 
+    @property
+    def normalised(self) -> bool:
+        """Whether the map lives in φ / s (s the latent's running RMS spread)."""
+        return self.space == "normalised"
+
 
 @dataclass(frozen=True)
 class WorldModels:
@@ -73,6 +78,11 @@ class WorldModels:
     target: Literal["absolute", "delta"]
     output: Literal["linear", "released"]
     new_node: Literal["fresh", "parent"]
+
+    @property
+    def normalised(self) -> bool:
+        """Whether the models read φ / s and predict in units of s."""
+        return self.space == "normalised"
 
 
 @dataclass(frozen=True)
@@ -110,6 +120,16 @@ class Reliability:
     lp_normalise: bool
     lp_warmup: Literal["zero_oldest", "unreliable"]
 
+    @property
+    def squared(self) -> bool:
+        """Whether Eq. 8's errors are squared norms (as printed) rather than norms."""
+        return self.error_norm == "squared"
+
+    @property
+    def held_out(self) -> bool:
+        """Whether arbitration reads the held-out verdict (else LP ≥ 0 of the error stream)."""
+        return self.signal == "heldout"
+
 
 @dataclass(frozen=True)
 class Intrinsic:
@@ -119,6 +139,21 @@ class Intrinsic:
 
     signal: Literal["neg_lp", "neg_lp_centred", "progress"]
     region: Literal["source", "destination"]
+
+    @property
+    def from_lp(self) -> bool:
+        """Whether r_int is −c·LP of the error stream (Eq. 9), else the held-out progress."""
+        return self.signal != "progress"
+
+    @property
+    def centred(self) -> bool:
+        """Whether the mean over the live regions is removed (``paper_centred``)."""
+        return self.signal == "neg_lp_centred"
+
+    @property
+    def at_destination(self) -> bool:
+        """Whether the region the action led into is rewarded (else the one the transition started in)."""
+        return self.region == "destination"
 
 
 @dataclass(frozen=True)
@@ -147,6 +182,16 @@ class Imagination:
     source: Literal["act_time", "learn_time"]
     gate: Literal["none", "no_change_ratio"]
     termination: bool
+
+    @property
+    def at_learn_time(self) -> bool:
+        """Whether imagined transitions are rolled out at each update (else stored at act time, line 17)."""
+        return self.source == "learn_time"
+
+    @property
+    def gated(self) -> bool:
+        """Whether an imagined transition is kept with its node's no-change-ratio probability."""
+        return self.gate == "no_change_ratio"
 
 
 REGIONS: dict[str, Regions] = {
@@ -204,8 +249,7 @@ class Readings:
     @property
     def needs_heldout(self) -> bool:
         """Whether a reading uses held-out verdicts (reliability, intrinsic progress, imagination gate)."""
-        return (self.reliability.signal == "heldout" or self.intrinsic.signal == "progress"
-                or self.imagination.gate == "no_change_ratio")
+        return self.reliability.held_out or not self.intrinsic.from_lp or self.imagination.gated
 
 
 def resolve(dual: DualConfig) -> Readings:
@@ -231,16 +275,28 @@ TABLES: dict[str, dict[str, Any]] = {
 """Each mechanism's field and its readings."""
 
 
+PIXEL_BUFFER_ALGOS = ("i2a", "la-imagination")
+"""The methods whose stored ``dual.pixel_buffer_size`` sized their real replay (B_pixel): a stored config of
+one of them takes it as ``agent.buffer_size``; the others ignored it."""
+
+
 def upgrade_stored(stored: Mapping[str, Any]) -> dict[str, Any]:
     """A stored config (a run's config.yaml, a checkpoint's config) written with the old dual switches,
     in the readings' words: each mechanism's old values (the old default where a key is absent) become the
     reading that holds exactly them. Raises ConfigError for old values that are no reading. A config in the
-    new words comes back unchanged; user input (`core.config.load_config`) is never upgraded."""
+    new words comes back unchanged; user input (`core.config.load_config`) is never upgraded. A stored
+    ``dual.pixel_buffer_size`` becomes the ``agent.buffer_size`` of the methods it sized
+    (`PIXEL_BUFFER_ALGOS`)."""
     data = {section: dict(values) if isinstance(values, Mapping) else values
             for section, values in stored.items()}
     dual = data.get("dual")
     if not isinstance(dual, dict):
         return data
+    if "pixel_buffer_size" in dual:  # I2A's own B_pixel size, now agent.buffer_size for every method
+        pixel = dual.pop("pixel_buffer_size")
+        run = data.get("run")
+        if isinstance(run, Mapping) and run.get("algo") in PIXEL_BUFFER_ALGOS:
+            data["agent"] = {**dict(data.get("agent") or {}), "buffer_size": pixel}
     old_reliability = dual.get("reliability") in ("lp", "heldout")
     old = {key for key in (*OLD_DUAL_SWITCHES, *OLD_DUAL_CONSTANTS, *OLD_DUAL_REJECTED) if key in dual}
     if not old_reliability:

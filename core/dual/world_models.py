@@ -32,7 +32,7 @@ Options (docs/dual-system.md, "Mechanisms"; each off in the ``paper`` profile):
   the mean over the live regions removed (``paper_centred``: its dependence on the region alone, a control),
   or +c·held-out progress of the region the action led into (`intrinsic_reward`).
 
-Each is read once from `core.dual.readings.resolve` (``self.readings``).
+Each is read from the readings record handed in (``self.readings``, `core.dual.readings.resolve`).
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ from core.dual.itm import InstantaneousTopologicalMap, ItmEvents
 from core.dual.itm_resolution import LatentScale, RelativeResolution
 from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
-from core.dual.readings import Readings, resolve
+from core.dual.readings import Readings
 from core.dual.reliability import HeldOutReliability
 
 REGION_SCALE_HORIZON = 200
@@ -83,11 +83,13 @@ class LocalWorldModels:
         action_dim: int,
         regions: bool = True,
         generator: torch.Generator | None = None,
-        readings: Readings | None = None,
+        *,
+        readings: Readings,
     ) -> None:
         self.config = dual
-        self.readings = resolve(dual) if readings is None else readings
-        """The mechanisms' readings (`core.dual.readings`): ``readings`` if given, else ``dual``'s."""
+        self.readings = readings
+        """The mechanisms' readings (`core.dual.readings.resolve`), resolved once by whoever builds the dual
+        system and handed to the planner too (`core.dual.meta_controller.MetaController`)."""
         read = self.readings
         self.latent_dim = latent_dim
         self.action_dim = action_dim
@@ -103,10 +105,9 @@ class LocalWorldModels:
             if regions and dual.e_max_relative is not None
             else None
         )
-        # e_max_relative is a scale-free e_max of the raw latent: with it the map stays in raw coordinates
-        normalised_map = read.regions.space == "normalised" and dual.e_max_relative is None
+        # e_max_relative is a scale-free e_max of the raw latent, refused with a normalised map (check_config)
         self.scale = (LatentScale(latent_dim, horizon=REGION_SCALE_HORIZON)
-                      if regions and normalised_map else None)
+                      if regions and read.regions.normalised else None)
         self.bank = ModelBank(
             latent_dim=latent_dim,
             action_dim=action_dim,
@@ -176,7 +177,7 @@ class LocalWorldModels:
         """``world_models = repaired``: the models' unit s follows the latent's running RMS spread. They are
         not centred: a running mean moves with where the agent is, and would move what they have learnt
         (the intrinsic check's learnable regions lost their progress that way)."""
-        if self.readings.world_models.space == "normalised":
+        if self.readings.world_models.normalised:
             self.bank.latent_scale = self.unit.scale
 
     def _follow(self, events: ItmEvents) -> None:
@@ -285,19 +286,19 @@ class LocalWorldModels:
     def intrinsic_rewards(self, nodes: np.ndarray, next_phi: torch.Tensor) -> np.ndarray:
         """`intrinsic_reward` of many transitions: from regions ``nodes [k]`` to ``next_phi [k, latent]``."""
         intrinsic = self.readings.intrinsic
-        regions = nodes if intrinsic.region == "source" else self.nearest_many(next_phi)
+        regions = self.nearest_many(next_phi) if intrinsic.at_destination else nodes
         rewards = self.region_intrinsic_rewards(regions)
-        if intrinsic.signal == "neg_lp_centred":
+        if intrinsic.centred:
             rewards = rewards - self.region_intrinsic_rewards(self.alive_regions()).mean()
         return rewards
 
     def region_intrinsic_rewards(self, regions: np.ndarray) -> np.ndarray:
         """The r_int signal of each region in ``regions`` now, before any centring: −c·LP (paper), or
         +c·held-out progress / s (repaired)."""
-        if self.readings.intrinsic.signal in ("neg_lp", "neg_lp_centred"):
+        if self.readings.intrinsic.from_lp:
             return self.lp.intrinsic_reward(regions)
         assert self.heldout is not None
-        unit = self.unit.scale if self.readings.reliability.error_norm == "l2" else self.unit.scale**2
+        unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
         return self.config.intrinsic_scale * self.heldout.progress_of(regions) / unit
 
     def alive_regions(self) -> np.ndarray:
@@ -357,19 +358,16 @@ class LocalWorldModels:
 
     def reliable_many(self, nodes: np.ndarray) -> np.ndarray:
         """`reliable` for an array of nodes (vectorised)."""
-        if self.readings.reliability.signal == "heldout":
+        if self.readings.reliability.held_out:
             assert self.heldout is not None
             return self.heldout.is_trusted(nodes)
         return self.lp.reliable(nodes)
 
     def imagination_share(self, nodes: np.ndarray) -> np.ndarray:
         """Probability of keeping an imagined transition each node predicted (``dual.imagination``)."""
-        if self.readings.imagination.gate == "none" or self.heldout is None:
+        if not self.readings.imagination.gated or self.heldout is None:
             return np.ones(np.asarray(nodes).shape[0])
         return self.heldout.share(nodes, self.config.imagination_max_ratio)
-
-    def learning_progress(self, node: int) -> float:
-        return float(self.lp.learning_progress(node)[0])
 
     def mean_error(self, node: int) -> float:
         """⟨e_{t,n}⟩ of the node's current window (NaN when it holds no error yet)."""

@@ -154,6 +154,11 @@ class LearnerAgent:
         obs_tensor = torch.from_numpy(np.ascontiguousarray(obs)).unsqueeze(0).to(self.device)
         return self.learner.encode(obs_tensor).cpu()
 
+    @torch.no_grad()
+    def encode_batch(self, obs: torch.Tensor) -> torch.Tensor:
+        """φ = f(s) of stored observations ``[B, ...]``: ``[B, latent]`` on the CPU, without gradient."""
+        return self.learner.encode(obs.to(self.device)).cpu()
+
     def actor(self, latent: torch.Tensor) -> torch.Tensor:
         """μ(φ), the learner's deterministic action, on the CPU (what the planner starts from)."""
         return self.learner.policy(latent.to(self.device)).cpu()

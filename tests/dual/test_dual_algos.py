@@ -5,15 +5,17 @@ from __future__ import annotations
 
 import copy
 import io
+import re
 
 import numpy as np
 import pytest
 import torch
 
-from core.config import PAPER_DUAL_OVERRIDES, load_config
+from core.config import ConfigError, check_config, load_config
 from core.dual.baselines import ValueExpansion
 from core.dual.imagination import imagination_probability, la_imagination_rollout
 from core.dual.meta_controller import MetaController
+from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
 from core.envs.spec import EnvSpec
 from core.modelfree.agent import Transition
@@ -22,11 +24,12 @@ from core.modelfree.learners.base import td_loss
 from core.modelfree.networks import to_float_chw
 from core.modelfree.replay import LatentBatch, PixelBatch
 from core.runs.methods import make_agent
+from tests.utils.paper_dual import paper_dual_overrides
 
 SPEC = EnvSpec(obs_shape=(32, 64, 3), action_dim=1)
-SMALL = ["net.conv_channels=4,4,4", "agent.buffer_size=300", "dual.pixel_buffer_size=300",
-         "dual.latent_buffer_size=1000", "agent.batch_size=8", "dual.latent_batch_size=8"]
-LITERAL = [*PAPER_DUAL_OVERRIDES, "dual.intrinsic_scale=0.1"]
+SMALL = ["net.conv_channels=4,4,4", "agent.buffer_size=300", "dual.latent_buffer_size=1000",
+         "agent.batch_size=8", "dual.latent_batch_size=8"]
+LITERAL = [*paper_dual_overrides(), "dual.intrinsic_scale=0.1"]
 """The paper's reading of the dual section (docs/dual-system.md, "Mechanisms": every repair off)."""
 
 
@@ -52,9 +55,9 @@ def test_i2a_adds_exactly_h_imagined_transitions_per_model_based_step() -> None:
     agent.begin_episode(obs)
     model_based_steps = 0
     for _ in range(80):
-        before_size, before_mb = len(agent.latent_replay), len(agent.dual.counters.horizons)
+        before_size, before_mb = len(agent.imagination.replay), len(agent.dual.counters.horizons)
         _step(agent, obs)
-        added = len(agent.latent_replay) - before_size
+        added = len(agent.imagination.replay) - before_size
         if len(agent.dual.counters.horizons) > before_mb:
             model_based_steps += 1
             horizon = agent.dual.counters.horizons[-1]
@@ -63,17 +66,17 @@ def test_i2a_adds_exactly_h_imagined_transitions_per_model_based_step() -> None:
         else:
             assert added == 0
     assert model_based_steps > 0  # a repeated image: the model improves, LP ≥ 0, model-based decisions
-    assert agent.dual.counters.imagined == sum(agent.dual.counters.horizons) == len(agent.latent_replay)
+    assert agent.dual.counters.imagined == sum(agent.dual.counters.horizons) == len(agent.imagination.replay)
 
 
 def test_arbitration_model_free_ablation_never_plans_but_keeps_intrinsic_reward() -> None:
-    agent = _agent("i2a", *LITERAL, "dual.arbitration=model_free")
+    agent = _agent("im2c", *LITERAL, "dual.arbitration=model_free")
     obs = _obs()
     agent.begin_episode(obs)
-    for _ in range(80):  # the same repeated image makes the full I2A go model-based (test above)
+    for _ in range(80):  # the same repeated image makes the full dual system go model-based (test above)
         _step(agent, obs)
     assert agent.dual.meta is None
-    assert agent.dual.counters.horizons == [] and len(agent.latent_replay) == 0
+    assert agent.dual.counters.horizons == []
     assert agent.dual.counters.mf_decisions == 80
     assert any(value != 0.0 for value in agent.dual.counters.intrinsic)
 
@@ -98,7 +101,7 @@ def test_im2c_stores_nothing_imagined_and_stores_r_ext_plus_r_int() -> None:
     agent.begin_episode(obs)
     for _ in range(10):
         _step(agent, obs, reward=-0.25)
-    assert not hasattr(agent, "latent_replay")
+    assert not hasattr(agent, "imagination")
     stored = agent.replay.reward[:10]
     intrinsic = np.array(agent.dual.counters.intrinsic, dtype=np.float32)
     np.testing.assert_allclose(stored, -0.25 + intrinsic, atol=1e-6)
@@ -113,13 +116,13 @@ def test_greedy_act_is_mu_of_f_and_changes_no_learning_state() -> None:
     agent.begin_episode(obs)
     for _ in range(15):
         _step(agent, obs)
-    snapshot = copy.deepcopy((agent.dual.world.state_dict(), len(agent.replay), len(agent.latent_replay),
+    snapshot = copy.deepcopy((agent.dual.world.state_dict(), len(agent.replay), agent.dual.total_imagined,
                               agent.rng.bit_generator.state, agent.dual.counters.__dict__))
     action, _ = agent.act(_obs(3), explore=False)
     with torch.no_grad():
         expected = agent.learner.actor(agent.learner.encoder(to_float_chw(torch.from_numpy(_obs(3))[None])))
     np.testing.assert_allclose(action, expected[0].numpy(), atol=1e-6)
-    after = (agent.dual.world.state_dict(), len(agent.replay), len(agent.latent_replay),
+    after = (agent.dual.world.state_dict(), len(agent.replay), agent.dual.total_imagined,
              agent.rng.bit_generator.state, agent.dual.counters.__dict__)
     assert after[1:] == snapshot[1:]
     for part, tensors in snapshot[0].items():
@@ -131,7 +134,7 @@ def test_greedy_act_is_mu_of_f_and_changes_no_learning_state() -> None:
 def _global_world(*overrides: str) -> LocalWorldModels:
     config = load_config("default", [*LITERAL, *overrides])
     return LocalWorldModels(config.dual, latent_dim=4, action_dim=1, regions=False,
-                            generator=torch.Generator().manual_seed(0))
+                            generator=torch.Generator().manual_seed(0), readings=resolve(config.dual))
 
 
 def _actor():
@@ -198,7 +201,7 @@ def test_imagination_update_is_algorithm_3_lines_34_to_37(ac: str) -> None:
     reference = copy.deepcopy(learner)
     pixel, latent = _batches()
     torch.manual_seed(11)
-    learner.update_with_imagination(pixel, latent)
+    learner.update(pixel, latent)
     torch.manual_seed(11)
 
     ref, cfg = reference, reference.agent_config
@@ -225,11 +228,10 @@ def test_imagination_update_is_algorithm_3_lines_34_to_37(ac: str) -> None:
     ref.critic_optimizer.zero_grad(set_to_none=True)
     (cfg.lambda_q * td_loss(ref.critic(phi_all, a_all), y_all, ref.twin_loss_weight)).backward()
     ref.critic_optimizer.step()
-    # Line 36: the learner's policy step on both minibatches' latents; line 37: targets (TD3: delayed).
-    with torch.no_grad():
-        phi_after = ref.encoder(obs)
+    # Line 36: the learner's policy step on both minibatches' latents (φ of the critic pass, before its
+    # step: docs/model-free.md, "One update path"); line 37: targets (TD3: delayed).
     ref.updates = 1
-    ref.policy_step(torch.cat([phi_after, latent.latent]), a_all, y_all)
+    ref.policy_step(torch.cat([phi.detach(), latent.latent]), a_all, y_all)
 
     for (name, got), (_, want) in zip(learner.state_dict().items(), ref.state_dict().items(), strict=True):
         torch.testing.assert_close(got, want, atol=1e-6, rtol=1e-5, msg=name)
@@ -237,7 +239,7 @@ def test_imagination_update_is_algorithm_3_lines_34_to_37(ac: str) -> None:
 
 def test_mve_target_expands_h_model_steps() -> None:
     config = load_config("default", ["net.conv_channels=4,4,4", *LITERAL])
-    world = LocalWorldModels(config.dual, 32, 1, regions=False)
+    world = LocalWorldModels(config.dual, 32, 1, regions=False, readings=resolve(config.dual))
     bank = world.bank
     for name in ("w1", "b1", "wm", "wr"):
         bank.params[name].zero_()
@@ -266,7 +268,7 @@ def test_mve_target_expands_h_model_steps() -> None:
 def test_world_models_follow_itm_events_and_report_pre_update_error() -> None:
     config = load_config("default", [*LITERAL, "dual.e_max=0.5"])
     world = LocalWorldModels(config.dual, latent_dim=3, action_dim=1,
-                             generator=torch.Generator().manual_seed(0))
+                             generator=torch.Generator().manual_seed(0), readings=resolve(config.dual))
     a = torch.tensor([0.2])
     assert world.observe_state(torch.zeros(3)) == 0 and world.num_nodes == 2
     before = world.bank.predict(torch.tensor([0]), torch.zeros(1, 3), a[None])
@@ -274,7 +276,7 @@ def test_world_models_follow_itm_events_and_report_pre_update_error() -> None:
     expected = world.bank.errors(before.next_latent, before.reward, torch.ones(1, 3), torch.tensor([0.5]))
     assert feedback.error == pytest.approx(float(expected[0]), rel=1e-6)
     scale = config.dual.intrinsic_scale
-    assert feedback.intrinsic_reward == pytest.approx(-scale * world.learning_progress(0))
+    assert feedback.intrinsic_reward == pytest.approx(-scale * float(world.lp.learning_progress(0)[0]))
     node = world.observe_state(torch.tensor([3.0, 0.0, 0.0]))
     assert node == 2 and world.num_nodes == 3
     assert world.lp.error_count(2)[0] == 0 and not world.reliable(2)
@@ -283,7 +285,8 @@ def test_world_models_follow_itm_events_and_report_pre_update_error() -> None:
 
 def test_model_batch_option_trains_on_the_node_recent_transitions() -> None:
     config = load_config("default", [*LITERAL, "dual.model_batch=3"])
-    world = LocalWorldModels(config.dual, 2, 1, regions=False, generator=torch.Generator().manual_seed(0))
+    world = LocalWorldModels(config.dual, 2, 1, regions=False, generator=torch.Generator().manual_seed(0),
+                             readings=resolve(config.dual))
     twin = copy.deepcopy(world.bank)
     samples = [(torch.rand(2), torch.rand(1), float(i), torch.rand(2)) for i in range(4)]
     for s in samples:
@@ -312,7 +315,7 @@ def test_agent_state_round_trips_through_weights_only_load() -> None:
     clone.load_replay_state_dict(saved["replay"])
     clone.begin_episode(obs)
     assert clone.dual.world.num_nodes == agent.dual.world.num_nodes
-    assert len(clone.latent_replay) == len(agent.latent_replay)
+    assert clone.dual.total_imagined == agent.dual.total_imagined
     for _ in range(5):
         np.testing.assert_allclose(_step(clone, obs), _step(agent, obs), atol=1e-6)
 
@@ -320,7 +323,7 @@ def test_agent_state_round_trips_through_weights_only_load() -> None:
 def test_refit_steps_each_nearest_node_once_and_leaves_the_rest_and_lp_alone() -> None:
     config = load_config("default", [*LITERAL, "dual.e_max=0.5"])
     world = LocalWorldModels(config.dual, latent_dim=2, action_dim=1,
-                             generator=torch.Generator().manual_seed(0))
+                             generator=torch.Generator().manual_seed(0), readings=resolve(config.dual))
     for point in ([0.0, 0.0], [3.0, 0.0], [0.0, 3.0]):
         world.observe_state(torch.tensor(point))
     nodes = world.itm.nearest(torch.tensor([[0.1, 0.0], [2.9, 0.1]]))
@@ -420,11 +423,11 @@ def test_i2a_imagines_at_learn_time_from_the_current_encoder_and_stores_nothing(
     for step in range(30):
         _step(agent, _obs(step % 3))
         agent.update_after_step()
-    assert len(agent.latent_replay) == 0  # B_latent of Alg. 3 line 17 is not used
+    assert not hasattr(agent.imagination, "replay")  # no B_latent: Alg. 3 line 17 keeps nothing
     agent.dual.world.heldout.trusted[:] = True  # every region trusted: the rollouts run up to D_max steps
     agent.dual.world.heldout.ratio[:] = 0.0  # and every transition passes the gate
     frames = torch.from_numpy(np.stack([_obs(0), _obs(1)]))
-    batch = agent._imagine_from(frames)
+    batch = agent.imagination.minibatch(frames)
     with torch.no_grad():
         current = agent.learner.encode(frames)
     assert batch is not None and batch.latent.shape[0] <= agent.config.dual.latent_batch_size
@@ -447,9 +450,25 @@ def test_imagination_depth_one_starts_every_imagined_transition_at_a_real_state(
             agent.update_after_step()
         agent.dual.world.heldout.trusted[:] = True
         agent.dual.world.heldout.ratio[:] = 0.0
-        batch = agent._imagine_from(frames)
+        batch = agent.imagination.minibatch(frames)
         with torch.no_grad():
             current = agent.learner.encode(frames)
         rows[depth] = [any(torch.allclose(row, c, atol=1e-6) for c in current) for row in batch.latent]
     assert all(rows[1]) and len(rows[1]) == 3
     assert not all(rows[None])  # D_max = 6: later steps start at predicted latents
+
+
+def test_i2a_without_its_planner_is_refused_with_the_fix() -> None:
+    with pytest.raises(ConfigError, match=re.escape("--algo im2c --set dual.arbitration=model_free")):
+        check_config(load_config("default", ["run.algo=i2a", "run.steps=10", "dual.arbitration=model_free"]))
+    check_config(load_config("default", ["run.algo=im2c", "run.steps=10", "dual.arbitration=model_free"]))
+
+
+@pytest.mark.parametrize(("overrides", "fix"), [
+    (["dual.e_max_relative=1.0"], "dual.regions=released"),
+    (["dual.model_batch=1"], "dual.model_memory=0"),
+    (["dual.model_batch=16", "dual.model_memory=4"], r"or >= 15"),
+])
+def test_dual_settings_that_make_no_sense_together_are_refused(overrides: list[str], fix: str) -> None:
+    with pytest.raises(ConfigError, match=re.escape(fix)):
+        check_config(load_config("default", ["run.steps=10", *overrides]))

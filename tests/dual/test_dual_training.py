@@ -17,7 +17,7 @@ from core.runs.trainer import train
 TINY = [
     "run.episodes=2", "run.eval_every=0", "run.eval_episodes=1", "run.checkpoint_every=0",
     "env.max_steps=8", "agent.learning_starts=4", "agent.batch_size=8", "agent.buffer_size=400",
-    "net.conv_channels=4,4,4", "dual.pixel_buffer_size=400", "dual.latent_buffer_size=400",
+    "net.conv_channels=4,4,4", "dual.latent_buffer_size=400",
     "dual.latent_batch_size=8", "dual.plan_steps=2",
 ]
 

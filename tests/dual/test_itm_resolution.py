@@ -10,9 +10,11 @@ import numpy as np
 import pytest
 import torch
 
-from core.config import PAPER_DUAL_OVERRIDES, load_config
+from core.config import load_config
 from core.dual.itm_resolution import RelativeResolution
+from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
+from tests.utils.paper_dual import paper_dual_overrides
 
 
 def test_relative_e_max_is_rho_times_the_median_pairwise_distance():
@@ -28,8 +30,9 @@ def test_relative_e_max_is_rho_times_the_median_pairwise_distance():
 
 def _world(*overrides: str) -> LocalWorldModels:
     """The paper's raw-latent ITM (e_max = 6), where the e_max_relative option applies."""
-    dual = load_config("default", [*PAPER_DUAL_OVERRIDES, *overrides]).dual
-    return LocalWorldModels(dual, latent_dim=8, action_dim=1, generator=torch.Generator().manual_seed(0))
+    dual = load_config("default", [*paper_dual_overrides(), *overrides]).dual
+    return LocalWorldModels(dual, latent_dim=8, action_dim=1, generator=torch.Generator().manual_seed(0),
+                            readings=resolve(dual))
 
 
 def test_absolute_e_max_keeps_a_small_latent_cloud_in_two_nodes_and_relative_makes_regions():

@@ -1,4 +1,5 @@
-"""Algorithm 1 (adaptive planning depth) and Eq. 6-7 (gradient MPC over the local models)."""
+"""Algorithm 1 (adaptive planning depth, through the meta-controller's live path) and Eq. 6-7 (gradient MPC
+over the local models, as each planner reading reads them)."""
 
 from __future__ import annotations
 
@@ -9,10 +10,20 @@ import pytest
 import torch
 from torch import nn
 
+from core.config import load_config
 from core.dual.itm import InstantaneousTopologicalMap
 from core.dual.learning_progress import LearningProgress
+from core.dual.meta_controller import MetaController
 from core.dual.model_bank import ModelBank
-from core.dual.planning import PlanObjective, Rollout, optimise_plan, plan_depth
+from core.dual.planning import Rollout, optimise_plan
+from core.dual.readings import PLANNER, Planner, resolve
+from core.dual.world_models import LocalWorldModels
+
+PAPER = PLANNER["paper"]
+RELEASED = PLANNER["released"]
+REPAIRED = PLANNER["repaired"]
+SUM_NORMALISED = Planner(objective="sum", optimiser="normalised", clip="executed")
+SUM_PROJECTED = Planner(objective="sum", optimiser="sgd", clip="every_step")
 
 
 def _chain(n_nodes: int, reliable: list[bool]):
@@ -36,9 +47,17 @@ def _actor() -> nn.Module:
     return nn.Sequential(nn.Linear(2, 1), nn.Tanh())
 
 
+def _rollout(n_nodes: int, reliable: list[bool], d_max: int) -> Rollout:
+    """Alg. 1's rollout as the meta-controller makes it (`MetaController.rollout`), over the chain's map,
+    models and LP (the paper profile's LP reliability)."""
+    dual = load_config("paper", [f"dual.d_max={d_max}"]).dual
+    world = LocalWorldModels(dual, 2, 1, readings=resolve(dual))
+    world.itm, world.bank, world.lp = _chain(n_nodes, reliable)
+    return MetaController(world, dual).rollout(torch.zeros(1, 2), 0, _actor())
+
+
 def test_depth_stops_at_first_negative_lp_node() -> None:
-    itm, bank, lp = _chain(6, [True, True, False, True, True, True])
-    rollout = plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6)
+    rollout = _rollout(6, [True, True, False, True, True, True], d_max=6)
     assert rollout.depth == 2
     assert rollout.nodes.tolist() == [0, 1]
     torch.testing.assert_close(rollout.next_latents, torch.tensor([[10.0, 0.0], [20.0, 0.0]]))
@@ -49,20 +68,17 @@ def test_depth_stops_at_first_negative_lp_node() -> None:
 
 
 def test_depth_stops_at_d_max() -> None:
-    itm, bank, lp = _chain(8, [True] * 8)
-    assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=3).depth == 3
-    assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6).depth == 6
+    assert _rollout(8, [True] * 8, d_max=3).depth == 3
+    assert _rollout(8, [True] * 8, d_max=6).depth == 6
 
 
 def test_depth_zero_when_start_node_unreliable_or_without_history() -> None:
-    itm, bank, lp = _chain(4, [False, True, True, True])
-    assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6).depth == 0
-    itm, bank, lp = _chain(4, [])
-    assert plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6).depth == 0
+    assert _rollout(4, [False, True, True, True], d_max=6).depth == 0
+    assert _rollout(4, [], d_max=6).depth == 0
 
 
 def plan_loss(phi: torch.Tensor, plan: torch.Tensor, nodes: torch.Tensor, bank: ModelBank,
-              objective: PlanObjective = "sum", r_star: float = 1.0) -> torch.Tensor:
+              objective: str = "sum", r_star: float = 1.0) -> torch.Tensor:
     """The autograd reference: L_plan (Eq. 6 or the per-step form) through the bank's `LocalModel.forward`."""
     params = bank.gather(nodes)
     current = torch.as_tensor(phi, dtype=torch.float32).reshape(1, -1)
@@ -87,20 +103,21 @@ def _random_setup(activation: str = "linear"):
     return bank, nodes, phi, plan
 
 
-@pytest.mark.parametrize("objective", ["sum", "per_step"])
+@pytest.mark.parametrize("planner", [PAPER, RELEASED])
 @pytest.mark.parametrize("activation", ["linear", "released"])
-def test_mpc_steps_lower_the_plan_loss_with_models_fixed(objective: str, activation: str) -> None:
+def test_mpc_steps_lower_the_plan_loss_with_models_fixed(planner: Planner, activation: str) -> None:
+    objective = planner.objective
     bank, nodes, phi, plan = _random_setup(activation)
     before = {k: v.clone() for k, v in bank.params.items()}
     rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
                       next_latents=phi[None].repeat(4, 1), nodes=nodes)
     losses = []
     for k in range(0, 11, 2):
-        result = optimise_plan(phi, rollout, bank, steps=k, lr=0.05, objective=objective, r_star=1.0)
+        result = optimise_plan(phi, rollout, bank, planner, steps=k, lr=0.05, r_star=1.0)
         losses.append(result.final_loss)
     assert all(b < a for a, b in itertools.pairwise(losses)), losses
     # The paper's α_plan = 1e-3 and K = 10 also lower the loss (a little).
-    small = optimise_plan(phi, rollout, bank, steps=10, lr=1e-3, objective=objective)
+    small = optimise_plan(phi, rollout, bank, planner, steps=10, lr=1e-3)
     assert small.final_loss < small.initial_loss
     ref = plan_loss(phi, small.plan, nodes, bank, objective)
     assert float(ref) == pytest.approx(small.final_loss, rel=1e-5)
@@ -109,50 +126,50 @@ def test_mpc_steps_lower_the_plan_loss_with_models_fixed(objective: str, activat
     assert -1.0 <= float(small.action[0]) <= 1.0
 
 
-@pytest.mark.parametrize("objective", ["sum", "per_step"])
+@pytest.mark.parametrize("planner", [PAPER, RELEASED])
 @pytest.mark.parametrize("activation", ["linear", "released"])
-def test_hand_written_gradient_equals_autograd(objective: str, activation: str) -> None:
+def test_hand_written_gradient_equals_autograd(planner: Planner, activation: str) -> None:
+    objective = planner.objective
     bank, nodes, phi, plan = _random_setup(activation)
     a = plan.clone().requires_grad_(True)
     loss = plan_loss(phi, a, nodes, bank, objective, r_star=0.7)
     (grad,) = torch.autograd.grad(loss, a)
     rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
                       next_latents=phi[None].repeat(4, 1), nodes=nodes)
-    one = optimise_plan(phi, rollout, bank, steps=1, lr=1.0, objective=objective, r_star=0.7)
+    one = optimise_plan(phi, rollout, bank, planner, steps=1, lr=1.0, r_star=0.7)
     torch.testing.assert_close(plan - one.plan, grad, atol=1e-5, rtol=1e-4)
     assert one.initial_loss == pytest.approx(float(loss.detach()), rel=1e-5)
 
 
-def test_optimise_plan_rejects_empty_rollout_and_bad_objective() -> None:
-    itm, bank, lp = _chain(3, [False])
-    empty = plan_depth(torch.zeros(2), 0, lp, itm, bank, _actor(), d_max=6)
+def test_optimise_plan_rejects_an_empty_rollout() -> None:
+    empty = _rollout(3, [False], d_max=6)
+    _, bank, _ = _chain(3, [False])
     with pytest.raises(ValueError, match="depth"):
-        optimise_plan(torch.zeros(2), empty, bank)
-    with pytest.raises(ValueError, match="objective"):
-        optimise_plan(torch.zeros(2), empty, bank, objective="max")
+        optimise_plan(torch.zeros(2), empty, bank, PAPER)
 
 
-@pytest.mark.parametrize("optimiser", ["normalised", "adam"])
-def test_step_relative_optimisers_lower_the_loss_by_action_sized_steps(optimiser: str) -> None:
+def test_normalised_steps_lower_the_loss_by_action_sized_steps() -> None:
     bank, nodes, phi, plan = _random_setup()
     rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan * 0.5, rewards=torch.zeros(4),
                       next_latents=phi[None].repeat(4, 1), nodes=nodes)
-    sgd = optimise_plan(phi, rollout, bank, steps=10, lr=1e-3)
-    result = optimise_plan(phi, rollout, bank, steps=10, lr=0.05, optimiser=optimiser, clip="every_step")
+    sgd = optimise_plan(phi, rollout, bank, PAPER, steps=10, lr=1e-3)
+    result = optimise_plan(phi, rollout, bank, REPAIRED, steps=10, lr=0.05)
     assert result.final_loss < result.initial_loss
     moved = float((result.plan - rollout.actions).abs().max())
     assert 0.05 <= moved <= 0.6  # about α per step, about K·α at most; plain SGD at the paper's α: ~0
     assert float((sgd.plan - rollout.actions).abs().max()) < 0.01
+    unprojected = optimise_plan(phi, rollout, bank, SUM_NORMALISED, steps=10, lr=0.05)
+    assert unprojected.final_loss < unprojected.initial_loss
 
 
 def test_every_step_clip_keeps_every_plan_action_in_bounds() -> None:
     bank, nodes, phi, plan = _random_setup()
     rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
                       next_latents=phi[None].repeat(4, 1), nodes=nodes)
-    literal = optimise_plan(phi, rollout, bank, steps=10, lr=50.0)
+    literal = optimise_plan(phi, rollout, bank, PAPER, steps=10, lr=50.0)
     assert float(literal.plan.abs().max()) > 1.0  # Eq. 7 as printed: only the executed action is clipped
     assert float(literal.action.abs().max()) <= 1.0
-    projected = optimise_plan(phi, rollout, bank, steps=10, lr=50.0, clip="every_step")
+    projected = optimise_plan(phi, rollout, bank, SUM_PROJECTED, steps=10, lr=50.0)
     assert float(projected.plan.abs().max()) <= 1.0
     ref = plan_loss(phi, projected.plan, nodes, bank)
     assert float(ref) == pytest.approx(projected.final_loss, rel=1e-5)
@@ -168,15 +185,5 @@ def test_hand_written_gradient_equals_autograd_for_a_delta_model_in_normalised_u
     (grad,) = torch.autograd.grad(plan_loss(phi, a, nodes, bank, "sum", r_star=0.7), a)
     rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
                       next_latents=phi[None].repeat(4, 1), nodes=nodes)
-    one = optimise_plan(phi, rollout, bank, steps=1, lr=1.0, objective="sum", r_star=0.7)
+    one = optimise_plan(phi, rollout, bank, PAPER, steps=1, lr=1.0, r_star=0.7)
     torch.testing.assert_close(plan - one.plan, grad, atol=1e-5, rtol=1e-4)
-
-
-def test_bad_optimiser_and_clip_raise() -> None:
-    bank, nodes, phi, plan = _random_setup()
-    rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
-                      next_latents=phi[None].repeat(4, 1), nodes=nodes)
-    with pytest.raises(ValueError, match="optimiser"):
-        optimise_plan(phi, rollout, bank, optimiser="lbfgs")
-    with pytest.raises(ValueError, match="clip"):
-        optimise_plan(phi, rollout, bank, clip="never")

@@ -85,7 +85,7 @@ def test_snapshots_rotate_every_lag_updates_and_progress_waits_for_two() -> None
 
 def test_repaired_intrinsic_reward_is_the_progress_of_the_region_the_action_led_into() -> None:
     dual = load_config("default", ["dual.e_max=0.5"]).dual
-    world = LocalWorldModels(dual, 2, 1, generator=torch.Generator().manual_seed(0))
+    world = LocalWorldModels(dual, 2, 1, generator=torch.Generator().manual_seed(0), readings=resolve(dual))
     world.scale.warmup = 1
     for point in ([0.0, 0.0], [3.0, 0.0], [0.0, 3.0], [0.1, 0.0]):
         world.observe_state(torch.tensor(point))
@@ -108,7 +108,7 @@ def test_centred_paper_intrinsic_reward_is_the_paper_signal_minus_its_mean_over_
     overrides = ["dual.e_max=0.5", "dual.intrinsic=paper_centred", "dual.reliability=released",
                  "dual.intrinsic_scale=1.0", "dual.lp_sigma=2", "dual.lp_window=2"]
     dual = load_config("default", overrides).dual
-    world = LocalWorldModels(dual, 2, 1, generator=torch.Generator().manual_seed(0))
+    world = LocalWorldModels(dual, 2, 1, generator=torch.Generator().manual_seed(0), readings=resolve(dual))
     world.scale.warmup = 1
     g = torch.Generator().manual_seed(3)
     for point in ([0.0, 0.0], [3.0, 0.0], [0.0, 3.0]):

@@ -17,7 +17,6 @@ TINY_OVERRIDES: dict[str, Any] = {
     "agent.batch_size": 8,
     "agent.buffer_size": 400,
     "agent.learning_starts": 10,
-    "dual.pixel_buffer_size": 400,
     "dual.latent_buffer_size": 400,
     "run.checkpoint_every": 2,
 }

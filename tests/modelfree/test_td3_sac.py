@@ -239,7 +239,7 @@ def _run(tmp_path, name: str, algo: str, steps: int, resume: bool = False, ac: s
                  'env.kwargs={"max_episode_steps": 60}',
                  f"run.steps={steps}", "run.episodes=none", "run.eval_every=0", "run.final_eval=false",
                  "agent.learning_starts=30", "agent.batch_size=16", *TEXTBOOK, "run.checkpoint_every=1",
-                 "dual.pixel_buffer_size=500", "dual.latent_buffer_size=500", "dual.latent_batch_size=8"]
+                 "dual.latent_buffer_size=500", "dual.latent_batch_size=8"]
     if ac:
         overrides.append(f"agent.ac={ac}")
     train(load_config("default", overrides), tmp_path / name, resume=resume, command="test")

@@ -24,7 +24,6 @@ TINY_VECTOR = [
     "agent.batch_size=16",
     "agent.learning_starts=50",
     "agent.buffer_size=2000",
-    "dual.pixel_buffer_size=2000",
     "dual.latent_buffer_size=2000",
     "run.eval_every=0",
     "run.eval_episodes=1",

@@ -6,7 +6,8 @@ import json
 
 import pytest
 
-from core.config import PAPER_DUAL_OVERRIDES, PROFILES, Config, ConfigError, check_config, load_config
+from core.config import PROFILES, Config, ConfigError, check_config, load_config
+from tests.utils.paper_dual import paper_dual_overrides
 
 
 def test_paper_profile_holds_section_4_1_1_values():
@@ -22,7 +23,7 @@ def test_paper_profile_holds_section_4_1_1_values():
     assert paper.agent.noise_std == paper.agent.noise_final_std == 1.0
     assert (paper.dual.e_max, paper.dual.lp_sigma, paper.dual.lp_window, paper.dual.d_max) == (6.0, 40, 20, 6)
     assert (paper.dual.plan_steps, paper.dual.plan_lr) == (10, 1e-3)
-    assert (paper.dual.pixel_buffer_size, paper.dual.latent_buffer_size) == (60_000, 200_000)
+    assert paper.dual.latent_buffer_size == 200_000  # B_pixel is agent.buffer_size, as every method's replay
     assert paper.run.episodes == 10_000 and paper.env.max_steps == 50
     # the text is explicit where the released code differs: random positions, −d shaping, learned hand
     env = paper.env
@@ -77,10 +78,11 @@ def test_profiles_resolve_to_exactly_their_old_switch_values(profile):
 
 def test_paper_dual_overrides_turn_the_default_into_the_paper_dual_section():
     paper = load_config("paper").dual
-    assert load_config("default", list(PAPER_DUAL_OVERRIDES)).dual == paper
+    overrides = paper_dual_overrides()
+    assert load_config("default", overrides).dual == paper
     removed = set(OLD_SWITCHES) - {"reliability"}  # the one old key that kept its name
-    assert not {key.split("=")[0].removeprefix("dual.") for key in PAPER_DUAL_OVERRIDES} & removed
-    assert "dual.reliability=released" in PAPER_DUAL_OVERRIDES
+    assert not {key.split("=")[0].removeprefix("dual.") for key in overrides} & removed
+    assert "dual.reliability=released" in overrides
 
 
 def test_each_reading_holds_the_old_values_it_names():

@@ -25,6 +25,7 @@ import numpy as np
 import torch
 
 from core.config import DualConfig
+from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
 from core.envs.three_regions import REGIONS, ThreeRegionsEnv, region_of
 
@@ -86,7 +87,8 @@ def region_shares(dual: DualConfig, steps: int, seed: int, intrinsic: bool = Tru
     """Share of the second half's steps in each of `REGIONS`, with the configured r_int or without any."""
     rng = np.random.default_rng(seed)
     env = ThreeRegionsEnv()
-    world = LocalWorldModels(dual, 3, 2, generator=torch.Generator().manual_seed(seed)) if intrinsic else None
+    world = LocalWorldModels(dual, 3, 2, generator=torch.Generator().manual_seed(seed),
+                                     readings=resolve(dual)) if intrinsic else None
     learner = RegionSeeker(rng)
     observation, _ = env.reset(seed=seed)
     visits = np.zeros(steps, dtype=np.int64)

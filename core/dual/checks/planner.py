@@ -60,7 +60,8 @@ def true_model(seed: int) -> ModelBank:
 def learned_model(dual: DualConfig, truth: ModelBank, transitions: int, seed: int) -> ModelBank:
     """A one-region `LocalWorldModels` (the profile's model options) trained on random toy transitions."""
     generator = torch.Generator().manual_seed(seed)
-    world = LocalWorldModels(dual, LATENT, ACTIONS, regions=False, generator=generator)
+    world = LocalWorldModels(dual, LATENT, ACTIONS, regions=False, generator=generator,
+                             readings=resolve(dual))
     g = torch.Generator().manual_seed(seed + 1)
     phi = torch.rand(transitions, LATENT, generator=g) * 2 - 1
     action = torch.rand(transitions, ACTIONS, generator=g) * 2 - 1
@@ -94,9 +95,8 @@ def plan_figures(dual: DualConfig, noise_std: float, model: ModelBank, truth: Mo
         with torch.no_grad():
             rollout = model_rollout(phi, 0, model, actor, HORIZON, continue_at=lambda _i, _n: True,
                                     locate=lambda _latent: 0)
-        result = optimise_plan(phi, rollout, model, steps=dual.plan_steps, lr=dual.plan_lr,
-                               objective=planner.objective, r_star=dual.r_star,
-                               optimiser=planner.optimiser, clip=planner.clip)
+        result = optimise_plan(phi, rollout, model, planner, steps=dual.plan_steps, lr=dual.plan_lr,
+                               r_star=dual.r_star)
         toward.append(true_return(truth, phi, result.plan) > true_return(truth, phi, rollout.actions))
         shifts.append(float((result.action - rollout.actions[0].clamp(-1.0, 1.0)).abs().max()))
     return {"toward_reward_share": float(np.mean(toward)),

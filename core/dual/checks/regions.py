@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from core.config import DualConfig
+from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
 
 SCALES = (0.01, 1.0, 100.0)
@@ -44,7 +45,8 @@ def episode_stream(states: int, seed: int, latent_dim: int = 32, manifold: int =
 
 def node_count(dual: DualConfig, latents: np.ndarray, seed: int = 0) -> int:
     """Live ITM nodes after streaming ``latents`` through a fresh `LocalWorldModels` (no action needed)."""
-    world = LocalWorldModels(dual, latents.shape[1], 1, generator=torch.Generator().manual_seed(seed))
+    world = LocalWorldModels(dual, latents.shape[1], 1, generator=torch.Generator().manual_seed(seed),
+                             readings=resolve(dual))
     for phi in torch.from_numpy(latents).float():
         world.observe_state(phi)
     return world.num_nodes

@@ -142,7 +142,8 @@ def _changing_stream(steps: int, change_at: int, seed: int, dim: int = 4, action
 def real_model_change(dual: DualConfig, steps: int = 3000, seed: int = 0) -> dict[str, float]:
     """Share of steps trusted in three stretches of a real (one-region) model's life on a changing stream:
     the quarter before the change, the 5 % just after it, and the last quarter."""
-    world = LocalWorldModels(dual, 4, 2, regions=False, generator=torch.Generator().manual_seed(seed))
+    world = LocalWorldModels(dual, 4, 2, regions=False, generator=torch.Generator().manual_seed(seed),
+                             readings=resolve(dual))
     change = steps // 2
     trusted = np.zeros(steps, dtype=bool)
     for step, (phi, action, reward, nxt) in enumerate(_changing_stream(steps, change, seed)):

@@ -10,33 +10,24 @@ three methods each learner file writes out in full (``ddpg.py``, ``td3.py``, ``s
 * ``policy_step(φ, a, y)`` — the actor's step after the critic's (TD3: delayed; SAC: with the temperature's);
 * ``explore(a, φ, step, rng)`` — the executed action around a chosen one (noise, or SAC's sampling).
 
-The two updates:
+One update, :meth:`Learner.update`, for every agent: one minibatch from the pixel replay B (Algorithm 2,
+lines 26-28) and, for I2A, one latent minibatch of imagined transitions (Algorithm 3, lines 34-37):
 
-:meth:`Learner.update` (Algorithm 2, lines 26-28), one minibatch from B_pixel:
-
-1. ``y = r + γ (1 − terminated) · bootstrap(f′(s′))`` with the target encoder (Eq. 1). Truncation at the step
-   limit is not termination: it bootstraps.
-2. ``critic_passes`` Adam steps on ``λ_rec · L_rec + λ_Q · L_Q`` over the same minibatch (Eq. 4), updating
+1. ``y = r + γ (1 − terminated) · bootstrap(f′(s′))`` with the target encoder (Eq. 1); an imagined row's
+   target bootstraps from its predicted φ̂′ (and its predicted ``done``). Truncation at the step limit is not
+   termination: it bootstraps.
+2. ``critic_passes`` Adam steps on ``λ_rec · L_rec + λ_Q · L_Q`` (Eq. 4) over the pixel minibatch, updating
    encoder ω, decoder ω̃ and critic θ^Q together. L_rec is the mean squared pixel (or scaled vector) error
    (Keras' MSE in the released code; the paper writes the squared norm, which only rescales λ_rec), L_Q the
    mean of Eq. 1 (twin critics: ``twin_loss_weight`` · Σ_i of each critic's mean, as SB3). Without a learned
-   encoder (``net.encoder = none``) only the critic steps.
-3. the learner's ``policy_step`` on φ = f(s) from the last critic pass (detached: the actor never trains the
-   encoder; reusing that forward pass saves one encoder evaluation per update).
-
-:meth:`Learner.update_with_imagination` (Algorithm 3, lines 34-37), one pixel minibatch from B_pixel and
-one latent minibatch of imagined transitions:
-
-- line 34: θ^Q fixed, encoder ω and decoder ω̃ take a step on L_combined (Eq. 4) of the pixel minibatch
-  (the value term's gradient flows through a detached copy of the critic into the encoder);
-- line 35: the critic θ^Q takes a step on L_Q (Eq. 1) over the pixel minibatch's latents φ = f(s)
-  (detached) together with the latent minibatch's φ, the two concatenated into one batch;
-- line 36: the learner's ``policy_step`` on the same concatenated latents (or the real ones only);
-- line 37: τ target updates (inside ``policy_step``: TD3 delays them).
-
-Lines 34 and 35 touch disjoint parameters, so they are one backward pass and one step of the
-critic-autoencoder's Adam (Adam is per parameter: identical to two separate steps). With ``critic_passes`` > 1
-(released-code schedule) both lines repeat that many times.
+   encoder (``net.encoder = none``) only the critic steps. With imagined rows, L_Q splits in two: line 34's
+   value term of the encoder, on the pixel rows through a frozen copy of the critic, and line 35's critic
+   term, on the pixel rows' detached φ and the imagined rows together. The two touch disjoint parameters, so
+   they are one backward pass and one Adam step (Adam is per parameter: identical to two separate steps).
+3. the learner's ``policy_step`` (line 36; τ target updates inside it, line 37: TD3 delays them) on φ = f(s)
+   of the last critic pass (detached: the actor never trains the encoder), with the imagined rows' φ when
+   there are any. Which φ: the one the critic's loss was computed on, before the pass's Adam step; reusing
+   that forward pass saves one encoder evaluation per update (docs/model-free.md, "One update path").
 
 ``value_expansion`` (MVE, ``core.dual.baselines``) replaces ``bootstrap`` in the target when set.
 """
@@ -210,40 +201,16 @@ class Learner(nn.Module):
         """The action the target policy takes at φ (MVE's imagined steps): μ′(φ), or SAC's tanh(mean)."""
         return self.target_actor(latent)
 
-    def update(self, batch: PixelBatch) -> dict[str, float]:
-        """One minibatch update from B_pixel: Eq. 4 (``critic_passes``), then the policy step (module doc)."""
-        cfg = self.agent_config
-        self.updates += 1
-        obs = self.encoder.prepare(batch.obs)
-        with torch.no_grad():
-            target = self.td_target(
-                batch.reward, self.target_encoder(self.encoder.prepare(batch.next_obs)), batch.terminated
-            )
-        rec_loss = q_loss = torch.zeros(())
-        latent = torch.zeros(())
-        for _ in range(cfg.critic_passes):
-            latent = self.encoder(obs)
-            if self.decoder is not None:
-                rec_loss = (self.decoder(latent) - obs).pow(2).mean()
-            q_loss = td_loss(self.critic(latent, batch.action), target, self.twin_loss_weight)
-            loss = cfg.lambda_q * q_loss
-            if self.decoder is not None:
-                loss = cfg.lambda_rec * rec_loss + loss
-            self.critic_optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            self.critic_optimizer.step()
-        # The actor reads φ of the last critic pass (before its Adam step): one encoder forward fewer.
-        actor = self.policy_step(latent.detach(), batch.action, target)
-        return {
-            "losses/critic": float(q_loss.detach()),
-            "losses/rec": float(rec_loss.detach()),
-            **_actor_loss(actor),
-            "losses/td_target_mean": float(target.mean()),
-            **_actor_extras(actor),
-        }
+    def update(self, pixel: PixelBatch, latent: LatentBatch | None = None) -> dict[str, float]:
+        """One update on a pixel minibatch and, for I2A, a latent minibatch of imagined transitions: Algorithm
+        2 lines 26-28 (``latent`` None) and Algorithm 3 lines 34-37 (module docstring).
 
-    def update_with_imagination(self, pixel: PixelBatch, latent: LatentBatch | None) -> dict[str, float]:
-        """Algorithm 3 lines 34-37 on one pixel and one latent minibatch (``latent`` None: pixel only)."""
+        Without imagined rows the encoder's value term and the critic's are one term, L_Q(f(s)), one critic
+        pass. With them the encoder's value term reads the pixel rows through a frozen copy of the critic
+        (line 34) and the critic's reads the pixel rows' detached φ and the imagined rows together (line 35);
+        the sum has the same gradients as the one term when there are no imagined rows. The policy step reads
+        φ of the last critic pass, before its Adam step (docs/model-free.md, "One update path"): one encoder
+        forward fewer, and the φ the critic's loss was computed on."""
         cfg = self.agent_config
         self.updates += 1
         obs = self.encoder.prepare(pixel.obs)
@@ -251,37 +218,37 @@ class Learner(nn.Module):
             next_phi = self.target_encoder(self.encoder.prepare(pixel.next_obs))
             y_pixel = self.td_target(pixel.reward, next_phi, pixel.terminated)
             if latent is not None:
-                y_latent = self.td_target(latent.reward, latent.next_latent, latent.done)
-                y_all = torch.cat([y_pixel, y_latent])
+                y_all = torch.cat([y_pixel, self.td_target(latent.reward, latent.next_latent, latent.done)])
                 action_all = torch.cat([pixel.action, latent.action])
-            else:
-                y_all, action_all = y_pixel, pixel.action
-        rec_loss = q_encoder = q_critic = torch.zeros(())
+        rec_loss = q_encoder = q_critic = phi = torch.zeros(())
         for _ in range(cfg.critic_passes):
             phi = self.encoder(obs)
             if self.decoder is not None:
                 rec_loss = (self.decoder(phi) - obs).pow(2).mean()
-            frozen_critic = {name: p.detach() for name, p in self.critic.named_parameters()}
-            q_frozen = functional_call(self.critic, frozen_critic, (phi, pixel.action))
-            q_encoder = td_loss(q_frozen, y_pixel, self.twin_loss_weight)
-            phi_all = phi.detach() if latent is None else torch.cat([phi.detach(), latent.latent])
-            q_critic = td_loss(self.critic(phi_all, action_all), y_all, self.twin_loss_weight)
-            if self.decoder is None:
-                loss = cfg.lambda_q * q_encoder + cfg.lambda_q * q_critic
+            if latent is None:
+                q_critic = td_loss(self.critic(phi, pixel.action), y_pixel, self.twin_loss_weight)
+                loss = cfg.lambda_q * q_critic
             else:
-                loss = cfg.lambda_rec * rec_loss + cfg.lambda_q * q_encoder + cfg.lambda_q * q_critic
+                frozen_critic = {name: p.detach() for name, p in self.critic.named_parameters()}
+                q_frozen = functional_call(self.critic, frozen_critic, (phi, pixel.action))
+                q_encoder = td_loss(q_frozen, y_pixel, self.twin_loss_weight)
+                phi_all = torch.cat([phi.detach(), latent.latent])
+                q_critic = td_loss(self.critic(phi_all, action_all), y_all, self.twin_loss_weight)
+                loss = cfg.lambda_q * q_encoder + cfg.lambda_q * q_critic
+            if self.decoder is not None:
+                loss = cfg.lambda_rec * rec_loss + loss
             self.critic_optimizer.zero_grad(set_to_none=True)
             loss.backward()
             self.critic_optimizer.step()
-        with torch.no_grad():
-            phi = self.encoder(obs)
         if latent is None:
-            actor = self.policy_step(phi, pixel.action, y_pixel)
+            actor = self.policy_step(phi.detach(), pixel.action, y_pixel)
         else:
-            actor = self.policy_step(torch.cat([phi, latent.latent]), action_all, y_all)
+            actor = self.policy_step(torch.cat([phi.detach(), latent.latent]), action_all, y_all)
+        out = {"losses/critic": float(q_critic.detach())}
+        if latent is not None:
+            out["losses/critic_encoder"] = float(q_encoder.detach())
         return {
-            "losses/critic": float(q_critic.detach()),
-            "losses/critic_encoder": float(q_encoder.detach()),
+            **out,
             "losses/rec": float(rec_loss.detach()),
             **_actor_loss(actor),
             "losses/td_target_mean": float(y_pixel.mean()),

@@ -10,10 +10,10 @@ The paper's text and the authors' released code differ in how the hand is used; 
 * ``hand="learned"`` (the paper's text): ``Box(-1, 1, (2,))``; ``action[1] > 0`` closes the hand and makes a
   grasp attempt; success below 0.04 m.
 
-Task levels (`level`, core/envs/levels.py) bundle the geometry and rules that differ between the released code
-(``released``, the default), the paper's text (``paper``) and a level where the camera is necessary and
-exploration is hard (``hard``): shoulder window, start angle, where the glass may stand, admitted hands and
-grasp attempts per episode.
+Task levels (`level`, core/task_levels.py) bundle the geometry and rules that differ between the released code
+(``released``, the default), the paper's text (``paper``), a level where the camera is necessary and
+exploration is hard (``hard``) and ``hard`` on the part of the shoulder's range the camera sees (``seen``):
+shoulder window, start angle, where the glass may stand, admitted hands and grasp attempts per episode.
 
 Grasp verification (Section 4.1.2): with the hand closed, the shoulder moves 20° opposite to its last
 movement and the distance between the centres of glass and hand is measured; below the threshold is a

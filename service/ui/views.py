@@ -1,9 +1,11 @@
 """What the dashboard shows of a job: plain dicts for the templates, computed from job rows.
 
 A job row (ORM object or Core row) holds the spec as submitted and, for `train`, the resolved config
-(`resolved.config`, sections `run`, `env`, `agent`, ...). The jobs table reads method, reward, level
+(`resolved.config`, sections `run`, `env`, `agent`, ...). The jobs table reads method, task, reward, level
 and seed from the resolved config first, then from the spec (`spec.algo`, `spec.overrides`), so a
-key added to the config later (`env.level`) shows up without a change here.
+key added to the config later (`env.level`) shows up without a change here. Reward modes and task levels
+are NicoGrasp's: another task (`env.id`, e.g. MountainCarContinuous-v0) shows its own reward (`task`, as
+its summaries name it) and no level.
 
 "Current success" is the greedy evaluation's success rate (`eval/success_rate`, the paper's measure)
 when the job has one, else the training episodes' success over the last `TRAIN_WINDOW` episodes,
@@ -22,6 +24,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
 
+from core.config import NICO_GRASP_ID
 from registry.database import Database
 from service.database import job_store
 from service.database.models import FINISHED_STATUSES
@@ -33,7 +36,9 @@ FIRST_LOOK_ROWS = 1000
 MAX_TRACKED = 500
 """Jobs remembered by `SuccessTracker` before it forgets all but the ones on the page it serves."""
 RELEASED_LEVEL = "released"
-"""What the table shows for a train job whose config names no `env.level` (the released task)."""
+"""What the table shows for a NicoGrasp train job whose config names no `env.level` (the released task)."""
+TASK_REWARD = "task"
+"""What the table shows as the reward of another task: the env's own (`EnvConfig.reward_label`)."""
 
 STATUS_ORDER = ("queued", "running", "succeeded", "failed", "cancelled")
 
@@ -56,11 +61,29 @@ def job_method(job: Any) -> str | None:
     return algo
 
 
+def job_env(job: Any) -> str | None:
+    """The train job's gymnasium id (NicoGrasp unless its config or overrides name another)."""
+    env = _config_value(job, "env", "id") or (job.spec or {}).get("env")
+    if env is not None:
+        return str(env)
+    return NICO_GRASP_ID if job.kind == "train" else None
+
+
+def _other_task(job: Any) -> bool:
+    env = job_env(job)
+    return env is not None and env != NICO_GRASP_ID
+
+
 def job_reward(job: Any) -> str | None:
+    if _other_task(job):
+        return TASK_REWARD
     return _config_value(job, "env", "reward_mode") or (job.spec or {}).get("reward")
 
 
 def job_level(job: Any) -> str | None:
+    """NicoGrasp's task level; None for another task (levels are NicoGrasp's) and for other kinds."""
+    if _other_task(job):
+        return None
     level = _config_value(job, "env", "level") or (job.spec or {}).get("level")
     if level is not None:
         return str(level)
@@ -197,6 +220,7 @@ def job_row(job: Any, success: Success | None, now: datetime) -> dict[str, Any]:
         "id": job.id,
         "kind": job.kind,
         "method": job_method(job),
+        "env": job_env(job),
         "reward": job_reward(job),
         "level": job_level(job),
         "seed": job_seed(job),
@@ -246,24 +270,29 @@ DIAGNOSTIC_LAYOUT: tuple[tuple[str, str, tuple[str, ...]], ...] = (
 )
 """The job page's diagnostics panels: (title, y-axis unit, metric keys drawn together)."""
 
+VALUE_LABELS = {
+    "charts/start_value": "critic's value of the start state",
+    "charts/discounted_return": "discounted return earned",
+    "eval/start_value": "greedy: critic's value of the start",
+    "eval/discounted_return": "greedy: discounted return earned",
+}
+"""Legend names of the overestimation pairs (the diagnostics PNG does not draw them)."""
+
 
 def diagnostic_groups() -> list[dict[str, Any]]:
-    """The panels with the legend names of `core.dual.diagnostics_panel` (the learning-curve PNG's).
+    """The panels with the legend names of `core.dual.diagnostics_panel` (the learning-curve PNG's) and of
+    `VALUE_LABELS`: every drawn series has a name a person reads, never a metrics.csv column.
 
     A key that panel draws but the layout does not name gets a panel of its own, so the browser never
     shows less than the PNG.
     """
     from core.dual.diagnostics_panel import PANEL_KEYS
 
-    labels = dict(PANEL_KEYS)
+    labels = {**dict(PANEL_KEYS), **VALUE_LABELS}
     groups = [
-        {"title": title, "unit": unit, "series": [[key, labels.get(key, key)] for key in keys]}
+        {"title": title, "unit": unit, "series": [[key, labels[key]] for key in keys]}
         for title, unit, keys in DIAGNOSTIC_LAYOUT
     ]
-    labels.update({"charts/start_value": "critic's value of the start state",
-                   "charts/discounted_return": "discounted return earned",
-                   "eval/start_value": "greedy: critic's value of the start",
-                   "eval/discounted_return": "greedy: discounted return earned"})
     placed = {key for _, _, keys in DIAGNOSTIC_LAYOUT for key in keys}
     groups += [
         {"title": label, "unit": "", "series": [[key, label]]}

@@ -1,8 +1,10 @@
 """The dashboard in a real headless Chromium (Debian's chromium + chromium-driver, Selenium) against a
 real service with running `probe` jobs: the jobs table's progress moves without a reload, the job
 page's learning curve gains points live, cancel is refused without the token and works with it, and
-a `<script>` in a tag or a job spec renders as text. Assertions are on the DOM; each test saves
-screenshots into its tmp folder. Skips with the reason when no browser is installed here.
+a `<script>` in a tag or a job spec renders as text; on the page of a real (tiny) training job every chart's
+drawn values, read back from its SVG, are the run's metrics.csv (tests/utils/drawn_charts.py), under legends
+a person reads. Assertions are on the DOM; each test saves screenshots into its tmp folder. Skips with the
+reason when no browser is installed here.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from typing import Any
 import pytest
 
 from tests.utils.browser import console_errors
+from tests.utils.drawn_charts import check_drawn_against_metrics, metrics_columns, read_charts
 from tests.utils.jobs import job, metrics, submit, wait_progress, wait_status
 from tests.utils.live_service import LiveService, wait_for
 from tests.utils.registered import register_version
@@ -269,4 +272,66 @@ def test_train_job_page_draws_greedy_success_and_dual_system_diagnostics(
         assert drawn == [2, 1, len(evaluations), len(evaluations)]
         assert "greedy evaluation at episode 10" in _text(browser, "#job-success")
         page("train-job")
+        _assert_charts_draw_the_runs_metrics(browser, client, trained["id"])
+    assert console_errors(browser) == []
+
+
+def _assert_charts_draw_the_runs_metrics(browser: Any, client: Any, job_id: int) -> list[str]:
+    """Every chart of the job page (the learning curve and each diagnostics panel) draws what the run's
+    metrics.csv holds, inside its frame, spread over its axis, under human legends; and each diagnostics
+    key metrics.csv has values for is drawn. Returns the keys drawn."""
+    response = client.get(f"/jobs/{job_id}/artifacts/metrics.csv")
+    assert response.status_code == 200, response.text
+    columns = metrics_columns(response.text)
+    charts = read_charts(browser, "#curve svg.plot, #diagnostics svg.plot")
+    assert charts and charts[0].panel == "curve", [c.panel for c in charts]
+    problems = [problem for chart in charts for problem in check_drawn_against_metrics(chart, columns)]
+    assert not problems, problems
+    drawn = {series.key for chart in charts for series in chart.series if series.points}
+    panel_keys = [key for chart in charts[1:] for key in chart.panel.split()]
+    recorded = {
+        key for key in panel_keys if any(v == v for v in columns.get(key, []))  # v == v: not NaN
+    }
+    assert recorded <= drawn, sorted(recorded - drawn)
+    assert "charts/episodic_return" in drawn
+    return sorted(drawn)
+
+
+MOUNTAIN_CAR_SAC_IM2C = {
+    "env.id": "MountainCarContinuous-v0",
+    "env.kwargs": {"max_episode_steps": 60},  # short episodes: many records in little time
+    "run.eval_every": 3,
+    "run.eval_episodes": 1,
+    "run.num_threads": 1,
+    "agent.learning_starts": 30,
+    "agent.batch_size": 16,
+}
+
+
+@pytest.mark.timeout(900)
+def test_a_gymnasium_task_job_page_draws_its_metrics_with_human_legends_and_no_level(
+    browser: Any, page: Callable[[str], None], start_service: Callable[..., LiveService]
+) -> None:
+    """The issue's case, small: a MountainCar SAC+IM2C job. Its decisions panel once drew one vertical
+    stroke on a 499–501 axis (an axis widened around its one tick by ±1), its value panel's legend showed
+    raw keys and its card a NicoGrasp level; every chart is now read back against metrics.csv."""
+    service = start_service()
+    with service.client(timeout=180) as client:
+        trained = submit(
+            client, "train", algo="im2c", ac="sac", seed=1, episodes=8, overrides=MOUNTAIN_CAR_SAC_IM2C
+        )
+        wait_status(client, trained["id"], {"succeeded"}, timeout=600)
+        browser.get(f"{service.url}/ui/jobs/{trained['id']}")
+        wait_for(lambda: _attr(browser, "#diagnostics", "data-points") == "8", timeout=30, what="8 episodes")
+        page("gym-task-job")
+        drawn = _assert_charts_draw_the_runs_metrics(browser, client, trained["id"])
+        assert {"dual/mb_decisions", "dual/mf_decisions", "charts/start_value"} <= set(drawn), drawn
+        legends = browser.execute_script(
+            "return Array.from(document.querySelectorAll('#diagnostics .legend-text'), e => e.textContent);"
+        )
+        assert "model-based decisions" in legends and "critic's value of the start state" in legends
+        # the card: the task, its own reward, and no NicoGrasp level
+        assert _text(browser, "#job-env") == "MountainCarContinuous-v0"
+        assert _text(browser, "#job-reward-seed").startswith("task")
+        assert not browser.find_elements("id", "job-reward-level-seed")
     assert console_errors(browser) == []

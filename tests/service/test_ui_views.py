@@ -1,6 +1,7 @@
 """What the jobs table reads of a job: "current success" from a real SQLite queue written by the real
 recorder (greedy evaluation first, else recent training episodes; incremental reads; a resumed attempt
-starts over), and the method/reward/level/seed columns from resolved configs and specs."""
+starts over), the method/task/reward/level/seed columns from resolved configs and specs (a level only for
+NicoGrasp), and the diagnostics panels' legends (names a person reads, never metrics.csv keys)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,17 @@ from registry.database import Database
 from service.database import job_store
 from service.database.migrate import upgrade_service
 from service.execution.job_recorder import JobRecorder
-from service.ui.views import SuccessTracker, age_text, job_level, job_method, job_row, summary_success
+from service.ui.views import (
+    SuccessTracker,
+    age_text,
+    diagnostic_groups,
+    job_env,
+    job_level,
+    job_method,
+    job_reward,
+    job_row,
+    summary_success,
+)
 
 
 @pytest.fixture()
@@ -112,3 +123,38 @@ def test_columns_come_from_the_resolved_config_then_the_spec() -> None:
     assert (
         age_text(now - timedelta(seconds=5), now) == "5 s" and age_text(now - timedelta(days=3), now) == "3 d"
     )
+
+
+def test_another_task_shows_its_own_reward_and_no_nicograsp_level() -> None:
+    """A MountainCar job's config still holds NicoGrasp's defaults (`env.level: released`, `reward_mode`):
+    the table and the card show the task, its own reward, and no level."""
+    mountain_car = SimpleNamespace(
+        kind="train",
+        spec={"algo": "im2c", "ac": "sac", "overrides": {"env.id": "MountainCarContinuous-v0"}},
+        resolved={
+            "config": {
+                "run": {"algo": "im2c"},
+                "env": {"id": "MountainCarContinuous-v0", "reward_mode": "dense", "level": "released"},
+            }
+        },
+    )
+    assert job_env(mountain_car) == "MountainCarContinuous-v0"
+    assert (job_level(mountain_car), job_reward(mountain_car)) == (None, "task")
+    queued = SimpleNamespace(kind="train", spec=mountain_car.spec, resolved={})  # from the spec alone
+    assert job_env(queued) == "MountainCarContinuous-v0"
+    assert (job_level(queued), job_reward(queued)) == (None, "task")
+    grasp = SimpleNamespace(
+        kind="train", spec={"reward": "sparse"}, resolved={"config": {"env": {"level": "hard"}}}
+    )
+    assert (job_env(grasp), job_level(grasp), job_reward(grasp)) == ("dualsys/NicoGrasp-v0", "hard", "sparse")
+    probe = SimpleNamespace(kind="probe", spec={"episodes": 3}, resolved={})
+    assert (job_env(probe), job_level(probe), job_reward(probe)) == (None, None, None)
+
+
+def test_every_diagnostics_legend_is_a_name_not_a_metrics_key() -> None:
+    groups = diagnostic_groups()
+    legends = {key: label for group in groups for key, label in group["series"]}
+    assert "charts/start_value" in legends and "dual/mb_decisions" in legends
+    raw = {key: label for key, label in legends.items() if label == key or "/" in label}
+    assert not raw, raw
+    assert legends["charts/start_value"] == "critic's value of the start state"

@@ -48,23 +48,30 @@
     return [bx, by];
   }
 
-  function niceTicks(lo, hi, count) {
+  function tickStep(lo, hi, count) {
+    // the round step (1, 2, 2.5, 5 times a power of ten) that cuts [lo, hi] into at most about `count` parts
     if (!(hi > lo)) { hi = lo + 1; }
     const raw = (hi - lo) / Math.max(1, count);
     const power = Math.pow(10, Math.floor(Math.log10(raw)));
-    const step = [1, 2, 2.5, 5, 10].map(function (m) { return m * power; }).find(function (s) { return s >= raw; });
+    return [1, 2, 2.5, 5, 10].map(function (m) { return m * power; }).find(function (s) { return s >= raw; });
+  }
+
+  function niceTicks(lo, hi, count) {
+    if (!(hi > lo)) { hi = lo + 1; }
+    const step = tickStep(lo, hi, count);
     const ticks = [];
     for (let t = Math.ceil(lo / step) * step; t <= hi + step * 1e-9; t += step) ticks.push(+t.toPrecision(12));
     return ticks;
   }
 
   function niceRange(range, count) {
-    // widen [lo, hi] to the tick steps around it, so the axis starts and ends on a labelled value
-    const ticks = niceTicks(range[0], range[1], count);
-    const step = ticks.length > 1 ? ticks[1] - ticks[0] : 1;
-    const lo = ticks[0] > range[0] ? ticks[0] - step : ticks[0];
-    const hi = ticks[ticks.length - 1] < range[1] ? ticks[ticks.length - 1] + step : ticks[ticks.length - 1];
-    return [+lo.toPrecision(12), +hi.toPrecision(12)];
+    // widen [lo, hi] to the multiples of the tick step around it, so the axis starts and ends on a labelled
+    // value. The step comes from the range itself, never from the ticks inside it: a range with one tick
+    // inside (52 … 947 with a step of 500) widens to 0 … 1000, not to that tick ± 1.
+    const step = tickStep(range[0], range[1], count);
+    const lo = Math.floor(range[0] / step + 1e-9) * step;
+    const hi = Math.ceil(range[1] / step - 1e-9) * step;
+    return [+lo.toPrecision(12), +(hi > lo ? hi : lo + step).toPrecision(12)];
   }
 
   function fmt(value) {
@@ -115,6 +122,11 @@
       const r = spec[side].range || niceRange(extent(values, [0, 1]), Math.max(2, Math.floor(ih / 40)));
       scales[side] = { r: r, f: function (v) { return m.top + ih - ((v - r[0]) / (r[1] - r[0])) * ih; } };
     });
+    // what a reader of the drawing needs to turn its coordinates back into values (the browser tests do):
+    // the plot frame and each axis's range; each series' path and dots carry their metric key (data-key)
+    svg.dataset.frame = [m.left, m.top, iw, ih].join(" ");
+    svg.dataset.x = xr.join(" ");
+    ["left", "right"].forEach(function (side) { if (scales[side]) svg.dataset[side] = scales[side].r.join(" "); });
     const grid = el("g", { class: "grid" });
     niceTicks(xr[0], xr[1], Math.max(2, Math.floor(iw / 90))).forEach(function (t) {
       if (t < xr[0] || t > xr[1]) return;
@@ -152,10 +164,13 @@
         pen = true;
       }
       const path = el("path", { d: d, class: "line " + s.cls });
+      path.dataset.axis = s.axis;
       if (s.key !== undefined) path.dataset.key = String(s.key);
       if (d) svg.appendChild(path);
       if (s.dots) {
         const dots = el("g", { class: "dots " + s.cls });
+        if (s.key !== undefined) dots.dataset.key = String(s.key);
+        dots.dataset.axis = s.axis;
         for (let i = 0; i < pair[0].length && i < 400; i++) {
           if (pair[1][i] === null) continue;
           dots.appendChild(el("circle", { cx: sx(pair[0][i]).toFixed(1), cy: f(pair[1][i]).toFixed(1), r: 2.5 }));

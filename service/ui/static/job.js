@@ -11,6 +11,7 @@
   const REDRAW_MS = 500;
   const PAGE = 5000;
   const POINTS = 1000; // records of the thinned series the page starts with
+  const RETURN = "charts/episodic_return";
   const data = window.dualsys.pageData();
   const jobId = data.job_id;
   const groups = data.diagnostics || [];
@@ -48,15 +49,19 @@
       return;
     }
     const win = windowFor(n);
+    curve.dataset.window = String(win);
     const per = shown.stride > 1 ? " points (" + win * shown.stride + " episodes)" : "";
     const series = win > 1 ? [
-      { name: "episodic return", xs: rec.x, ys: rec.ret, cls: "raw", axis: "left" },
-      { name: "return, mean of " + win + per, xs: rec.x, ys: smooth(rec.ret, win), cls: "ret", axis: "left" },
-    ] : [{ name: "episodic return", xs: rec.x, ys: rec.ret, cls: "ret", axis: "left" }];
+      { name: "episodic return", key: RETURN, xs: rec.x, ys: rec.ret, cls: "raw", axis: "left" },
+      { name: "return, mean of " + win + per, key: RETURN, xs: rec.x, ys: smooth(rec.ret, win), cls: "ret",
+        axis: "left" },
+    ] : [{ name: "episodic return", key: RETURN, xs: rec.x, ys: rec.ret, cls: "ret", axis: "left" }];
     if (rec.evalY.length) {
-      series.push({ name: "greedy success", xs: rec.evalX, ys: rec.evalY, cls: "succ", axis: "right", dots: true });
+      series.push({ name: "greedy success", key: "eval/success_rate", xs: rec.evalX, ys: rec.evalY, cls: "succ",
+        axis: "right", dots: true });
     } else if (rec.success.some(function (v) { return v !== null; })) {
-      series.push({ name: win > 1 ? "training success, mean of " + win : "training success", xs: rec.x,
+      series.push({ name: win > 1 ? "training success, mean of " + win : "training success", key: "charts/success",
+        xs: rec.x,
         ys: smooth(rec.success, win),
         cls: "succ dashed", axis: "right" });
     }
@@ -70,6 +75,7 @@
   function drawDiagnostics() {
     const n = rec.episode.length;
     panels.dataset.points = String(n);
+    panels.dataset.window = String(windowFor(n)); // the trailing mean each diagnostic line is drawn with
     const present = groups.filter(function (g) {
       return g.series.some(function (s) {
         return rec.dual[s[0]] && rec.dual[s[0]].some(function (v) { return v !== null; });
@@ -90,9 +96,9 @@
       const series = g.series.filter(function (s) { return rec.dual[s[0]]; }).map(function (s, i) {
         // greedy evaluations (eval/…) are sparse: their own values as dots, not a trailing mean
         if (s[0].indexOf("eval/") === 0) {
-          return { name: s[1], xs: rec.x, ys: rec.dual[s[0]], cls: "d" + i, axis: "left", dots: true };
+          return { name: s[1], key: s[0], xs: rec.x, ys: rec.dual[s[0]], cls: "d" + i, axis: "left", dots: true };
         }
-        return { name: s[1], xs: rec.x, ys: smooth(rec.dual[s[0]], win), cls: "d" + i, axis: "left" };
+        return { name: s[1], key: s[0], xs: rec.x, ys: smooth(rec.dual[s[0]], win), cls: "d" + i, axis: "left" };
       });
       const box = document.createElement("figure");
       box.className = "panel";

@@ -290,6 +290,6 @@
 
   window.dualsys.charts = {
     chart: chart, smooth: smooth, fmt: fmt, num: num, colour: colour, columns: columns, addRecord: addRecord,
-    loadSeries: loadSeries, interpolate: interpolate,
+    loadSeries: loadSeries, interpolate: interpolate, niceRange: niceRange,
   };
 })();

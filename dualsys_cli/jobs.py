@@ -1,13 +1,16 @@
 """`dualsys jobs submit|list|show|cancel|watch`: the job service's HTTP client (httpx).
 
 The service URL comes from `--url` or `DUALSYS_URL` (default http://127.0.0.1:8000), the bearer
-token from `DUALSYS_TOKEN`. `submit <kind>` takes the same options as the matching command
-(`train`: --algo --reward --seed --episodes --steps --minutes --profile --set --ac).
+token from `DUALSYS_TOKEN`. `submit <kind>` takes the same options as the matching command: `submit
+train` every option of `dualsys train` (--algo --env --reward --seed --episodes --steps --minutes --profile
+--set --config --ac --tensorboard/--no-tensorboard --json) but `TRAIN_ONLY`
+(tests/service/test_jobs_submit_options.py compares the two commands).
 """
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 import typer
@@ -19,6 +22,9 @@ submit_app = typer.Typer(help="Queue a job; prints its id.", no_args_is_help=Tru
 app.add_typer(submit_app, name="submit")
 
 URL = typer.Option(None, "--url", envvar="DUALSYS_URL", help="Service URL (default http://127.0.0.1:8000).")
+TRAIN_ONLY = ("--out", "--resume")
+"""`dualsys train`'s options that `jobs submit train` does not take: both name a run directory on this
+machine, where the service chooses and keeps each job's own (resume a job by re-queueing it, not by path)."""
 JSON = typer.Option(False, "--json", help="Print JSON.")
 
 
@@ -56,7 +62,10 @@ def _overrides(items: list[str] | None) -> dict[str, Any]:
 @submit_app.command("train")
 def submit_train(
     algo: str = typer.Option(None, "--algo", help="Method name (default: the profile's)."),
-    reward: str = typer.Option(None, "--reward", help="dense | sparse."),
+    env: str = typer.Option(
+        None, "--env", help="Gymnasium id (default dualsys/NicoGrasp-v0; `dualsys env list` shows the ids)."
+    ),
+    reward: str = typer.Option(None, "--reward", help="NicoGrasp's reward: dense | sparse."),
     seed: int = typer.Option(None, "--seed"),
     episodes: int = typer.Option(None, "--episodes", min=1),
     steps: int = typer.Option(None, "--steps", min=1),
@@ -65,11 +74,28 @@ def submit_train(
         "auto", "--profile", help="default | paper | vector; auto: vector for vector observations."
     ),
     overrides: list[str] = typer.Option(None, "--set", help="section.key=value (repeatable)."),
+    config_file: Path = typer.Option(
+        None,
+        "--config",
+        help="YAML/JSON file of config sections (read here, sent as overrides before --set).",
+    ),
     ac: str = typer.Option(None, "--ac", help="The learner: ddpg | cacla | td3 | sac."),
+    tensorboard: bool = typer.Option(
+        None,
+        "--tensorboard/--no-tensorboard",
+        help="Write TensorBoard event files into the job's run directory (run.tensorboard).",
+    ),
     url: str = URL,
     as_json: bool = JSON,
 ) -> None:
-    """Queue a training run (the same options as `dualsys train`)."""
+    """Queue a training run: the options of `dualsys train`, in the same order (profile, --config, --set,
+    then the named ones), except --out and --resume (the service keeps each job's run directory)."""
+    items = _config_file_overrides(config_file)
+    items.update(_overrides(overrides))
+    if tensorboard is not None:
+        items["run.tensorboard"] = tensorboard
+    if env is not None:
+        items["env.id"] = env
     spec = {
         "algo": algo,
         "reward": reward,
@@ -78,10 +104,30 @@ def submit_train(
         "steps": steps,
         "minutes": minutes,
         "profile": profile,
-        "overrides": _overrides(overrides),
+        "overrides": items,
         "ac": ac,
     }
     _submit(url, "train", spec, as_json)
+
+
+def _config_file_overrides(path: Path | None) -> dict[str, Any]:
+    """A `--config` file's sections as typed `section.key` overrides (text read as `--set` reads it)."""
+    if path is None:
+        return {}
+    from core.config import read_config_file
+
+    with user_errors():
+        data = read_config_file(path)
+        flat: dict[str, Any] = {}
+        for section, values in data.items():
+            if not isinstance(values, dict):
+                raise ValueError(f"--config {path}: section {section!r} must be a mapping")
+            for key, value in values.items():
+                flat[f"{section}.{key}"] = value
+    from service.schemas.config_overrides import typed_overrides
+
+    texts = typed_overrides({k: v for k, v in flat.items() if isinstance(v, str)})
+    return {k: texts.get(k, list(v) if isinstance(v, tuple) else v) for k, v in flat.items()}
 
 
 @submit_app.command("align")

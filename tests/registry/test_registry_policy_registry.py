@@ -108,6 +108,21 @@ def test_lineage_and_tags(policy_registry: PolicyRegistry, tmp_path: Path) -> No
     assert listing == {"grasp": 1, "grasp-real": 2}
 
 
+def test_overviews_and_versions_from_a_job(policy_registry: PolicyRegistry, tmp_path: Path) -> None:
+    """What the dashboard lists without SQL of its own: per policy its version count and newest version's
+    time and job; per job the versions registered from it."""
+    assert policy_registry.policy_overviews() == {} and policy_registry.versions_from_job(7) == []
+    policy_registry.register_run("grasp", make_run_dir(tmp_path / "r1"), source_job_id=7)
+    policy_registry.register_run("grasp", make_run_dir(tmp_path / "r2"), source_job_id=8)
+    policy_registry.register_run("other", make_run_dir(tmp_path / "r3"), source_job_id=7)
+    overviews = policy_registry.policy_overviews()
+    newest = policy_registry.resolve("grasp")
+    assert (overviews["grasp"].versions, overviews["grasp"].latest_source_job_id) == (2, 8)
+    assert overviews["grasp"].latest_created_at == newest.created_at
+    assert (overviews["other"].versions, overviews["other"].latest_source_job_id) == (1, 7)
+    assert policy_registry.versions_from_job(7) == ["grasp@1", "other@1"]
+
+
 def test_add_onnx_artifact(policy_registry: PolicyRegistry, tmp_path: Path) -> None:
     policy_registry.register_run("grasp", make_run_dir(tmp_path / "r"))
     onnx = tmp_path / "policy.onnx"

@@ -1,7 +1,7 @@
 """OpenAPI links: how one operation's answer names the input of the next (create → read → update →
 delete), so a generated client, and schemathesis' stateful phase, can chain them.
 
-Operation ids are the route functions' names (`create_app` sets `generate_unique_id_function`).
+Operation ids are the route functions' names (`create_api` sets `generate_unique_id_function`).
 """
 
 from __future__ import annotations

@@ -167,6 +167,25 @@ def test_the_api_and_the_dashboard_never_import_each_other() -> None:
     assert composers == ["service.server"], composers
 
 
+def test_the_dashboard_reads_through_the_database_layer_and_the_registry_api() -> None:
+    """`service.ui` writes no query of its own: jobs come from `service.database`'s stores, policies from the
+    registry's Python API, so it imports neither SQLAlchemy nor the registry's tables."""
+    wrong = []
+    for module, path in _modules().items():
+        if not _in(module, "service.ui"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = (
+                [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else [alias.name for alias in node.names]
+                if isinstance(node, ast.Import)
+                else []
+            )
+            wrong += [f"{module} → {name}" for name in names if _in(name, "sqlalchemy", "registry.models")]
+    assert not wrong, wrong
+
+
 def test_service_api_reaches_execution_only_through_the_supervisor_and_the_job_kinds() -> None:
     allowed = {"service.execution.supervisor", "service.execution.job_kinds"}
     wrong = [

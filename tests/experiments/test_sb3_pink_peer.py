@@ -18,7 +18,7 @@ from pink import PinkNoiseDist
 
 import core.experiments.sb3_peer as sb3_peer
 from core.config import ConfigError, load_config
-from core.experiments import expand_cells, load_experiment, run_experiment
+from core.experiments import expand_cells, load_experiment, run_cell
 from core.experiments.dispatch import runner_for
 from core.experiments.sb3_peer import SB3Runner, train_sb3
 
@@ -99,6 +99,5 @@ def test_sb3_sac_pink_is_a_method_of_experiment_files(tmp_path):
     assert isinstance(runner, SB3Runner) and runner.algo == "sac" and runner.pink
     (cell,) = expand_cells(spec, tmp_path)
     assert cell.config["run"]["algo"] == "sb3-sac-pink"
-    result = run_experiment(spec, tmp_path, workers=1)
-    assert result.complete, result.to_dict()
+    assert run_cell(cell)["algo"] == "sb3-sac-pink"
     assert json.loads((cell.run_dir / "summary.json").read_text())["algo"] == "sb3-sac-pink"

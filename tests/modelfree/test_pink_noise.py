@@ -190,8 +190,7 @@ def test_same_seed_same_run_other_seed_other_run_and_resume_continues(tmp_path, 
 def test_a_dual_system_method_explores_with_pink_noise(tmp_path):
     from core.runs.methods import make_agent
 
-    config = load_config("vector", [*TINY_RUN, "run.algo=im2c", "agent.ac=ddpg", "run.steps=120",
-                                    "dual.pixel_buffer_size=2000", "dual.latent_buffer_size=2000"])
+    config = load_config("vector", [*TINY_RUN, "run.algo=im2c", "agent.ac=ddpg", "run.steps=120"])
     agent = make_agent(config, SPEC_MC, np.random.default_rng(0))
     assert isinstance(agent.learner.noise, PinkNoise) and agent.learner.noise.seq_len == 60
     summary = train(config, tmp_path / "im2c")

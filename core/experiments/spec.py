@@ -46,8 +46,9 @@ from typing import Any
 import yaml
 
 from core.config import NICO_GRASP_ID, ConfigError
+from core.task_levels import LEVELS as TASK_LEVELS
 
-LEVELS: tuple[str, ...] = ("released", "paper", "hard")
+LEVELS: tuple[str, ...] = tuple(TASK_LEVELS)
 """Task levels an experiment may name (``env.level``)."""
 
 REWARDS: tuple[str, ...] = ("dense", "sparse")

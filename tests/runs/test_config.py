@@ -120,10 +120,11 @@ def test_a_removed_dual_key_is_a_one_line_error_naming_what_replaced_it(key, tmp
         load_config("default", file=file)
 
 
-def test_a_scale_free_e_max_is_accepted_with_any_regions_reading():
-    """Every value the REST schema allows is a valid config (schemathesis checks the schema's side)."""
-    for regions in ("paper", "released", "repaired"):
+def test_a_scale_free_e_max_is_a_raw_latent_resolution_refused_with_a_normalised_map():
+    for regions in ("paper", "released"):
         check_config(load_config("default", ["dual.e_max_relative=1.0", f"dual.regions={regions}"]))
+    with pytest.raises(ConfigError, match=r"set dual\.regions=released"):
+        check_config(load_config("default", ["dual.e_max_relative=1.0", "dual.regions=repaired"]))
 
 
 def test_a_stored_config_in_the_old_switches_is_read_as_its_readings():

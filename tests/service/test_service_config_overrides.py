@@ -20,10 +20,15 @@ def _numeric(schema: dict) -> dict:
     return {}
 
 
+COMPANIONS = {"dual.e_max_relative": ["dual.regions=released"], "dual.model_batch": ["dual.model_memory=0"]}
+"""Keys whose bound is probed beside the setting `core.config.check_dual_combinations` asks of them (a
+raw-latent resolution needs a raw-latent map; one sample per update samples no older transition)."""
+
+
 def _accepted(key: str, value: float) -> bool:
     text = str(int(value)) if float(value).is_integer() else repr(value)
     try:
-        check_config(load_config("default", [f"{key}={text}"]))
+        check_config(load_config("default", [*COMPANIONS.get(key, []), f"{key}={text}"]))
     except ConfigError:
         return False
     return True

@@ -21,7 +21,7 @@ import numpy as np
 import torch
 
 from core.config import DualConfig
-from core.dual.readings import Readings
+from core.dual.readings import Readings, resolve
 from core.dual.world_models import LocalWorldModels
 
 Transition = tuple[np.ndarray, np.ndarray, float, np.ndarray]
@@ -47,7 +47,7 @@ def error_ratio(dual: DualConfig, stream: Iterable[Transition], latent_dim: int,
     """Mean Eq. 8 error of the models / of "nothing changes" on the last quarter of ``stream`` (``readings``:
     those instead of ``dual``'s)."""
     world = LocalWorldModels(dual, latent_dim, action_dim, generator=torch.Generator().manual_seed(seed),
-                             readings=readings)
+                             readings=resolve(dual) if readings is None else readings)
     errors, no_change = [], []
     for phi, action, reward, nxt in stream:
         phi_t = torch.as_tensor(phi, dtype=torch.float32)

@@ -3,7 +3,6 @@ worker with a continuous metrics.csv, refusal of changed settings, time-based ch
 
 from __future__ import annotations
 
-import csv
 import itertools
 import json
 import os
@@ -21,6 +20,7 @@ from core.runs.run_dir import load_checkpoint
 from core.runs.trainer import train
 from dualsys_cli.main import app
 from tests.experiments.conftest import tiny_experiment_data
+from tests.utils.run_dirs import metrics_rows
 
 # These tests spawn worker processes that train real (tiny) cells: a few CPU-seconds each, but on a shared
 # 2-core machine under `nice -n 19` they can wait many minutes for a core, past the suite's 600 s default.
@@ -38,8 +38,7 @@ RUN_FILES = (
 
 
 def rows(run_dir) -> list[dict[str, str]]:
-    with (run_dir / "metrics.csv").open(newline="") as file:
-        return list(csv.DictReader(file))
+    return metrics_rows(run_dir)
 
 
 @pytest.mark.timeout(SLOW_MACHINE_TIMEOUT_S)

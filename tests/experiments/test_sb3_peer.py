@@ -7,7 +7,6 @@ is our encoder, vector tasks get MlpPolicy, the dualsys setting is exactly NON_D
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import sys
@@ -41,6 +40,7 @@ from core.runs.run_dir import load_checkpoint
 from core.runs.trainer import RECORD_KEYS, train
 from dualsys_cli.main import app
 from tests.experiments.conftest import tiny_experiment_data
+from tests.utils.run_dirs import metrics_rows
 
 TINY = [
     "env.level=hard",
@@ -58,8 +58,7 @@ TINY = [
 
 
 def rows(run_dir) -> list[dict[str, str]]:
-    with (run_dir / "metrics.csv").open(newline="") as file:
-        return list(csv.DictReader(file))
+    return metrics_rows(run_dir)
 
 
 def returns(run_dir) -> list[tuple[int, int, float]]:

@@ -5,7 +5,6 @@ reproduces a run and a resumed run goes on with the same noise."""
 
 from __future__ import annotations
 
-import csv
 import json
 
 import pytest
@@ -21,6 +20,7 @@ from core.config import ConfigError, load_config
 from core.experiments import expand_cells, load_experiment, run_cell
 from core.experiments.dispatch import runner_for
 from core.experiments.sb3_peer import SB3Runner, train_sb3
+from tests.utils.run_dirs import metrics_rows
 
 TINY = [
     "env.id=MountainCarContinuous-v0",
@@ -38,9 +38,7 @@ TINY = [
 
 
 def rows(run_dir) -> list[dict[str, str]]:
-    with (run_dir / "metrics.csv").open(newline="") as file:
-        return [{k: v for k, v in r.items() if not k.startswith(("time/", "charts/sps"))}
-                for r in csv.DictReader(file)]
+    return metrics_rows(run_dir, without_wall_clock=True)
 
 
 def test_pink_peer_samples_through_pink_noise_dist(tmp_path, monkeypatch):

@@ -5,8 +5,6 @@ reproduces a run and a resumed run goes on with the same noise; a dual-system me
 
 from __future__ import annotations
 
-import csv
-
 import numpy as np
 import pytest
 import torch
@@ -17,6 +15,7 @@ from core.envs.spec import EnvSpec
 from core.modelfree.learners import make_learner
 from core.modelfree.noise import PinkNoise, resolve_noise
 from core.runs.trainer import train
+from tests.utils.run_dirs import metrics_rows
 
 SPEC = EnvSpec(obs_shape=(2,), action_dim=2, obs_kind="vector", obs_dtype="float32")
 SMALL = ["net.mlp_hidden=16,16", "agent.warmup=policy"]
@@ -156,9 +155,7 @@ TINY_RUN = [
 
 
 def rows(run_dir) -> list[dict[str, str]]:
-    with (run_dir / "metrics.csv").open(newline="") as file:
-        return [{k: v for k, v in r.items() if not k.startswith(("time/", "charts/sps"))}
-                for r in csv.DictReader(file)]
+    return metrics_rows(run_dir, without_wall_clock=True)
 
 
 def test_the_sequence_length_is_the_envs_step_limit():

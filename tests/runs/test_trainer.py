@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import json
 
 import numpy as np
@@ -13,6 +12,7 @@ from core.config import ConfigError, load_config
 from core.runs.policy import PolicyLoadError, load_policy
 from core.runs.run_dir import RunDirectoryError, load_checkpoint
 from core.runs.trainer import RECORD_KEYS, train
+from tests.utils.run_dirs import metrics_rows
 
 TINY = [
     "net.conv_channels=4,4",
@@ -36,8 +36,7 @@ def tiny(episodes: int, *extra: str):
 
 
 def rows(run_dir) -> list[dict[str, str]]:
-    with (run_dir / "metrics.csv").open(newline="") as file:
-        return list(csv.DictReader(file))
+    return metrics_rows(run_dir)
 
 
 def without_time(table: list[dict[str, str]]) -> list[dict[str, str]]:

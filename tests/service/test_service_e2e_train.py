@@ -17,14 +17,12 @@ from datetime import datetime
 
 import torch
 
+from tests.utils.experiment_files import TINY_NETS
 from tests.utils.jobs import FINISHED, job, metrics, submit, wait_status
 from tests.utils.live_service import LiveService, wait_for
 
 TINY = {
-    "net.conv_channels": [4, 4],
-    "net.latent_dim": 8,
-    "net.critic_hidden": 8,
-    "net.actor_hidden": 8,
+    **TINY_NETS,
     "run.eval_every": 0,
     "run.eval_episodes": 1,
     "run.checkpoint_every": 1,

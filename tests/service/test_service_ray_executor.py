@@ -17,6 +17,7 @@ from service.database.models import JobMetric  # noqa: E402
 from service.execution.executors.ray_executor import RayExecutor  # noqa: E402
 from service.execution.supervisor import Supervisor  # noqa: E402
 from service.settings import ServiceSettings  # noqa: E402
+from tests.utils.experiment_files import TINY_NETS  # noqa: E402
 from tests.utils.live_service import wait_for  # noqa: E402
 
 
@@ -106,10 +107,7 @@ def test_ray_job_failure_and_cancel(supervisor: Supervisor) -> None:
 
 def test_ray_runs_a_tiny_training_job(supervisor: Supervisor) -> None:
     overrides = {
-        "net.conv_channels": [4, 4],
-        "net.latent_dim": 8,
-        "net.critic_hidden": 8,
-        "net.actor_hidden": 8,
+        **TINY_NETS,
         "env.max_steps": 5,
         "run.eval_every": 0,
         "run.eval_episodes": 1,

@@ -18,6 +18,7 @@ import pytest
 from typer.testing import CliRunner
 
 from dualsys_cli.main import app
+from tests.utils.experiment_files import TINY_NETS
 from tests.utils.jobs import submit, wait_status
 from tests.utils.live_service import LiveService
 
@@ -26,10 +27,7 @@ event_accumulator = pytest.importorskip(
 )
 
 TINY = {
-    "net.conv_channels": [4, 4],
-    "net.latent_dim": 8,
-    "net.critic_hidden": 8,
-    "net.actor_hidden": 8,
+    **TINY_NETS,
     "env.max_steps": 5,
     "run.eval_every": 2,
     "run.eval_episodes": 1,

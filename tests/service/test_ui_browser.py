@@ -17,6 +17,7 @@ import pytest
 
 from tests.utils.browser import console_errors
 from tests.utils.drawn_charts import check_drawn_against_metrics, metrics_columns, read_charts
+from tests.utils.experiment_files import TINY_NETS
 from tests.utils.jobs import job, metrics, submit, wait_progress, wait_status
 from tests.utils.live_service import LiveService, wait_for
 from tests.utils.registered import register_version
@@ -206,10 +207,7 @@ def test_script_in_a_tag_or_spec_renders_as_text(
 
 
 TINY_I2A = {
-    "net.conv_channels": [4, 4],
-    "net.latent_dim": 8,
-    "net.critic_hidden": 8,
-    "net.actor_hidden": 8,
+    **TINY_NETS,
     "env.max_steps": 8,
     "run.eval_every": 5,
     "run.eval_episodes": 1,

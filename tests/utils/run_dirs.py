@@ -6,6 +6,7 @@ the end-to-end service tests register directories made by the real trainer inste
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -39,3 +40,16 @@ def make_run_dir(
         torch.save(state, folder / "checkpoints" / "latest.pt")
         torch.save(state, folder / "checkpoints" / "best.pt")
     return folder
+
+
+WALL_CLOCK_PREFIXES = ("time/", "charts/sps")
+"""metrics.csv columns that measure the machine, not the run: left out where two runs are compared."""
+
+
+def metrics_rows(run_dir: Path, *, without_wall_clock: bool = False) -> list[dict[str, str]]:
+    """A run's metrics.csv as rows (strings, as written); ``without_wall_clock`` drops the timing columns."""
+    with (Path(run_dir) / "metrics.csv").open(newline="") as file:
+        rows = list(csv.DictReader(file))
+    if without_wall_clock:
+        rows = [{k: v for k, v in row.items() if not k.startswith(WALL_CLOCK_PREFIXES)} for row in rows]
+    return rows

@@ -80,12 +80,16 @@ class ThreeRegionsEnv(gym.Env):
             "env/coverage_rest": float(rest.sum()) / rest.size,
         }
 
+    def _start_position(self) -> np.ndarray:
+        """An episode's start: uniform over the square (`core.envs.noisy_tv` starts elsewhere)."""
+        return self.np_random.uniform(-1.0, 1.0, size=2)
+
     def _observation(self) -> np.ndarray:
         return np.array([*self._position, self._screen], dtype=np.float32)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        self._position = self.np_random.uniform(-1.0, 1.0, size=2)
+        self._position = self._start_position()
         self._screen = 0.0
         self._steps = self._noise_steps = 0
         self._visited[:] = False

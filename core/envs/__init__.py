@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING, Any
 import gymnasium as gym
 
 from core.envs.camera import CameraPose, CameraShift, Lighting
-from core.envs.noisy_tv import NoisyTVEnv
 from core.envs.oracle import oracle_action, run_oracle
 from core.envs.robot_description import ArmGeometry
 from core.envs.three_regions import ThreeRegionsEnv
@@ -34,17 +33,22 @@ if NOISY_TV_ID not in gym.registry:
 
 if TYPE_CHECKING:
     from core.envs.nico_grasp import NicoGraspEnv, PhysicsSettings
+    from core.envs.noisy_tv import NoisyTVEnv
 
 _NICO_GRASP_NAMES = ("NicoGraspEnv", "PhysicsSettings")
 
 
 def __getattr__(name: str) -> Any:
     """``NicoGraspEnv`` and ``PhysicsSettings`` from `core.envs.nico_grasp`, imported (with PyBullet) on
-    first use."""
+    first use; ``NoisyTVEnv`` from `core.envs.noisy_tv`."""
     if name in _NICO_GRASP_NAMES:
         import core.envs.nico_grasp as nico_grasp
 
         return getattr(nico_grasp, name)
+    if name == "NoisyTVEnv":  # on first use, so `python -m core.envs.noisy_tv` runs a module not yet imported
+        import core.envs.noisy_tv as noisy_tv
+
+        return noisy_tv.NoisyTVEnv
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

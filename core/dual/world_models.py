@@ -49,6 +49,7 @@ from core.dual.itm_resolution import LatentScale, RelativeResolution
 from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
 from core.dual.readings import Readings
+from core.dual.region_field import RegionField
 from core.dual.reliability import HeldOutReliability
 
 REGION_SCALE_HORIZON = 200
@@ -300,6 +301,18 @@ class LocalWorldModels:
         assert self.heldout is not None
         unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
         return self.config.intrinsic_scale * self.heldout.progress_of(regions) / unit
+
+    def aim_field(self, aim: str) -> RegionField | None:
+        """The planner's aim (``dual.planner``'s `Planner.aim`) as a smooth field over the latent: one value
+        per live region (`HeldOutReliability.relative_progress` or `relative_error`), placed at the region's
+        node in the map's coordinates, width e_max. None without a map, before its first state, or no aim."""
+        if aim == "none" or self.itm is None or not self.itm.initialised or self.heldout is None:
+            return None
+        regions = self.itm.alive_ids()
+        signal = self.heldout.relative_progress if aim == "progress" else self.heldout.relative_error
+        width = self.itm.e_max if self.itm.distance == "l2" else float(np.sqrt(self.itm.e_max))
+        unit = None if self.scale is None else float(self.scale.scale)
+        return RegionField(self.itm.weights(regions), signal(regions), width=width, unit=unit)
 
     def alive_regions(self) -> np.ndarray:
         """The live regions' ids (node 0 alone without a map, or before the map's first state)."""

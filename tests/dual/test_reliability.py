@@ -123,3 +123,21 @@ def test_centred_paper_intrinsic_reward_is_the_paper_signal_minus_its_mean_over_
     centred = np.array([world.intrinsic_reward(int(n), torch.zeros(2)) for n in regions])
     np.testing.assert_allclose(centred, paper - paper.mean(), atol=1e-12)
     assert abs(centred.mean()) < 1e-12
+
+
+def test_relative_progress_is_significant_progress_over_the_no_change_error_and_novelty_the_ratio() -> None:
+    """What the aiming planners read (``dual.planner`` progress / novelty): an improving node's progress
+    beyond z standard errors over its no-change error; 0 for a flat (converged or noise) one; the error
+    ratio."""
+    world = _world("dual.planner=progress")
+    held = world.heldout
+    held.ensure_capacity(3)
+    held.progress[:3] = [0.2, 0.05, 0.0]
+    held.standard_error[:3] = [0.01, 0.05, 0.02]  # node 1: within noise of 0; node 2: no progress
+    held.recent_no_change[:3] = 2.0
+    held.recent_count[:3] = 10
+    held.ratio[:3] = [0.3, 1.4, np.nan]
+    expected = (0.2 - held.z * 0.01) / 2.0
+    np.testing.assert_allclose(held.relative_progress([0, 1, 2]), [expected, 0.0, 0.0])
+    np.testing.assert_allclose(held.relative_error([0, 1, 2]), [0.3, 1.0, 1.0])
+    assert world.aim_field("progress") is None  # no map: a global model has no regions to aim at

@@ -264,7 +264,7 @@ class Readings:
     def needs_heldout(self) -> bool:
         """Whether a reading uses held-out verdicts (reliability, intrinsic progress, imagination gate)."""
         return (self.reliability.held_out or not self.intrinsic.from_lp or self.imagination.gated
-                or self.planner.aim != "none")
+                or self.planner.aim == "novelty")
 
 
 def resolve(dual: DualConfig) -> Readings:

@@ -322,28 +322,6 @@ class HeldOutReliability:
         self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
         return self.progress[ids].copy()
 
-    def no_change_scale(self, ids: np.ndarray) -> np.ndarray:
-        """Mean no-change error of each node's newest transitions (NaN while it has none)."""
-        filled = np.minimum(self.recent_count[ids], self.window)
-        mask = np.arange(self.window)[None, :] < filled[:, None]
-        total = np.where(mask, self.recent_no_change[ids], 0.0).sum(axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(filled > 0, total / np.maximum(filled, 1), np.nan)
-
-    def relative_progress(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
-        """Learning progress the planner aims at (``dual.planner = progress``): the held-out progress beyond
-        ``z`` standard errors, over the node's no-change error — the share of "nothing changes"' error the
-        model removed in the last lag — clipped to [0, 1]. About 0 where the model has converged (no
-        progress), where the outcome is noise (the paired difference of two models on the same held-out
-        transitions has mean 0: γ-Progress' robustness, Kim et al. 2020) and where undefined."""
-        ids = np.asarray(nodes, dtype=np.int64).reshape(-1)
-        self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
-        significant = np.maximum(self.progress[ids] - self.z * self.standard_error[ids], 0.0)
-        scale = self.no_change_scale(ids)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            value = np.where(scale > 0, significant / scale, 0.0)
-        return np.clip(np.nan_to_num(value, nan=0.0), 0.0, 1.0)
-
     def relative_error(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
         """Prediction error the novelty planner aims at (``dual.planner = novelty``): the node's error ratio
         to "nothing changes", clipped to [0, 1]; 1 while undefined (an unjudged region is unknown)."""

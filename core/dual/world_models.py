@@ -46,6 +46,7 @@ from core.config import DualConfig
 from core.dual.capacity import grown_capacity
 from core.dual.itm import InstantaneousTopologicalMap, ItmEvents
 from core.dual.itm_resolution import LatentScale, RelativeResolution
+from core.dual.lagged_progress import LaggedProgress
 from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
 from core.dual.readings import Readings
@@ -139,6 +140,8 @@ class LocalWorldModels:
         )
         if self.heldout is not None:
             self.heldout.reset_nodes(np.arange(capacity))
+        self.lagged_progress = LaggedProgress(self.bank) if read.planner.aim == "progress" else None
+        """γ-Progress per node, what the ``progress`` planner aims at (`core.dual.lagged_progress`)."""
         self.unit = LatentScale(latent_dim, horizon=MODEL_SCALE_HORIZON)
         """The latent's running mean and RMS spread over a longer horizon (`LatentScale`): the local models'
         units (``world_models = repaired``) and the repaired r_int's unit."""
@@ -191,6 +194,8 @@ class LocalWorldModels:
                 self._memory.reset(list(events.added))
             if self.heldout is not None:
                 self.heldout.reset_nodes(list(events.added))
+            if self.lagged_progress is not None:
+                self.lagged_progress.reset_nodes(list(events.added))
 
     def _set_resolution(self, distance: float | None) -> None:
         """Set the ITM's e_max to the L2 threshold `distance` (squared if the map compares squared ones)."""
@@ -199,6 +204,8 @@ class LocalWorldModels:
 
     def _reset(self, nodes: list[int]) -> None:
         self.lp.reset_nodes(nodes)
+        if self.lagged_progress is not None:
+            self.lagged_progress.reset_nodes(nodes)
         if self._memory is not None:
             self._memory.reset(nodes)
         if self.heldout is not None:
@@ -263,6 +270,10 @@ class LocalWorldModels:
             if self._memory is not None:
                 self._memory.add(node, phi[0], action[0], float(reward_ext), next_phi[0], float(terminated))
         self.lp.record([node], [error])
+        if self.lagged_progress is not None:
+            self.lagged_progress.record(node, error, phi, action, float(reward_ext), next_phi)
+            if old is not None or not held_out:
+                self.lagged_progress.after_update([node])
         if self.heldout is not None:
             no_change = float(self.bank.errors(phi, torch.zeros(1), next_phi, reward)[0])
             self.heldout.record(node, error, no_change)
@@ -304,15 +315,22 @@ class LocalWorldModels:
 
     def aim_field(self, aim: str) -> RegionField | None:
         """The planner's aim (``dual.planner``'s `Planner.aim`) as a smooth field over the latent: one value
-        per live region (`HeldOutReliability.relative_progress` or `relative_error`), placed at the region's
-        node in the map's coordinates, width e_max. None without a map, before its first state, or no aim."""
-        if aim == "none" or self.itm is None or not self.itm.initialised or self.heldout is None:
+        per live region (`LaggedProgress.relative` or `HeldOutReliability.relative_error`), placed at the
+        region's node in the map's coordinates, width e_max. None without a map, before its first state, or
+        no aim."""
+        if aim == "none" or self.itm is None or not self.itm.initialised:
             return None
         regions = self.itm.alive_ids()
-        signal = self.heldout.relative_progress if aim == "progress" else self.heldout.relative_error
+        if aim == "progress":
+            assert self.lagged_progress is not None
+            unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
+            values = self.lagged_progress.relative(regions, unit)
+        else:
+            assert self.heldout is not None
+            values = self.heldout.relative_error(regions)
         width = self.itm.e_max if self.itm.distance == "l2" else float(np.sqrt(self.itm.e_max))
-        unit = None if self.scale is None else float(self.scale.scale)
-        return RegionField(self.itm.weights(regions), signal(regions), width=width, unit=unit)
+        map_unit = None if self.scale is None else float(self.scale.scale)
+        return RegionField(self.itm.weights(regions), values, width=width, unit=map_unit)
 
     def alive_regions(self) -> np.ndarray:
         """The live regions' ids (node 0 alone without a map, or before the map's first state)."""
@@ -362,6 +380,8 @@ class LocalWorldModels:
         errors = self.bank.update(nodes, phi, action, next_phi, reward_ext, terminated)
         if self.heldout is not None:
             self.heldout.evaluate(torch.unique(nodes).numpy())
+        if self.lagged_progress is not None:
+            self.lagged_progress.after_update(nodes.numpy())
         return errors
 
     # ------------------------------------------------------------------ queries
@@ -404,6 +424,8 @@ class LocalWorldModels:
             state["scale"] = self.scale.state_dict()
         if self.heldout is not None:
             state["heldout"] = self.heldout.state_dict()
+        if self.lagged_progress is not None:
+            state["lagged_progress"] = self.lagged_progress.state_dict()
         state["generator"] = {"state": self.bank.generator.get_state()}
         state["unit"] = self.unit.state_dict()
         return state
@@ -424,6 +446,8 @@ class LocalWorldModels:
         self._sync_model_space()
         if self.heldout is not None:
             self.heldout.load_state_dict(state["heldout"])
+        if self.lagged_progress is not None:
+            self.lagged_progress.load_state_dict(state["lagged_progress"])
         self.bank.generator.set_state(state["generator"]["state"])
 
 

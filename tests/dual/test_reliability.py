@@ -125,19 +125,11 @@ def test_centred_paper_intrinsic_reward_is_the_paper_signal_minus_its_mean_over_
     assert abs(centred.mean()) < 1e-12
 
 
-def test_relative_progress_is_significant_progress_over_the_no_change_error_and_novelty_the_ratio() -> None:
-    """What the aiming planners read (``dual.planner`` progress / novelty): an improving node's progress
-    beyond z standard errors over its no-change error; 0 for a flat (converged or noise) one; the error
-    ratio."""
-    world = _world("dual.planner=progress")
+
+def test_novelty_is_the_error_ratio_to_no_change_clipped_and_unknown_counts_as_novel() -> None:
+    world = _world("dual.planner=novelty")
     held = world.heldout
     held.ensure_capacity(3)
-    held.progress[:3] = [0.2, 0.05, 0.0]
-    held.standard_error[:3] = [0.01, 0.05, 0.02]  # node 1: within noise of 0; node 2: no progress
-    held.recent_no_change[:3] = 2.0
-    held.recent_count[:3] = 10
     held.ratio[:3] = [0.3, 1.4, np.nan]
-    expected = (0.2 - held.z * 0.01) / 2.0
-    np.testing.assert_allclose(held.relative_progress([0, 1, 2]), [expected, 0.0, 0.0])
     np.testing.assert_allclose(held.relative_error([0, 1, 2]), [0.3, 1.0, 1.0])
-    assert world.aim_field("progress") is None  # no map: a global model has no regions to aim at
+    assert world.aim_field("novelty") is None  # no map: a global model has no regions to aim at

@@ -170,12 +170,13 @@ class Planner:
     (`core.dual.planning.RegionField`): none; ``progress`` — the region's held-out learning progress beyond
     z standard errors, over its no-change error (large where a model is improving, about 0 where it has
     converged and where the outcome is noise); ``novelty`` — the region's model error over its no-change
-    error (prediction-error curiosity: large where the model is wrong, noise included)."""
+    error (prediction-error curiosity: large where the model is wrong, noise included); ``disagreement`` — the
+    variance of an ensemble of the region's models (Plan2Explore, MAX: epistemic uncertainty)."""
 
     objective: Literal["sum", "per_step", "return"]
     optimiser: Literal["sgd", "normalised"]
     clip: Literal["executed", "every_step"]
-    aim: Literal["none", "progress", "novelty"] = "none"
+    aim: Literal["none", "progress", "novelty", "disagreement"] = "none"
 
 
 @dataclass(frozen=True)
@@ -231,10 +232,12 @@ PLANNER: dict[str, Planner] = {
     "repaired": Planner(objective="sum", optimiser="normalised", clip="every_step"),
     "progress": Planner(objective="return", optimiser="normalised", clip="every_step", aim="progress"),
     "novelty": Planner(objective="return", optimiser="normalised", clip="every_step", aim="novelty"),
+    "disagreement": Planner(objective="return", optimiser="normalised", clip="every_step",
+                            aim="disagreement"),
 }
 """``progress`` and ``novelty`` are no reading of the text or the code: planners that aim before the first
 reward (issue 50; docs/dual-system.md, "A planner that aims"). ``novelty`` is the ablation that replaces
-learning progress by prediction error."""
+learning progress by prediction error; ``disagreement`` the peer that aims at the models' uncertainty."""
 IMAGINATION: dict[str, Imagination] = {
     "paper": Imagination(source="act_time", gate="none", termination=False),
     "repaired": Imagination(source="learn_time", gate="no_change_ratio", termination=True),

@@ -44,6 +44,7 @@ import torch
 
 from core.config import DualConfig
 from core.dual.capacity import grown_capacity
+from core.dual.disagreement import EnsembleDisagreement
 from core.dual.itm import InstantaneousTopologicalMap, ItmEvents
 from core.dual.itm_resolution import LatentScale, RelativeResolution
 from core.dual.lagged_progress import LaggedProgress
@@ -142,6 +143,10 @@ class LocalWorldModels:
             self.heldout.reset_nodes(np.arange(capacity))
         self.lagged_progress = LaggedProgress(self.bank) if read.planner.aim == "progress" else None
         """γ-Progress per node, what the ``progress`` planner aims at (`core.dual.lagged_progress`)."""
+        self.disagreement = (EnsembleDisagreement(self.bank, seed=int(self.bank.generator.initial_seed()) + 1)
+                             if read.planner.aim == "disagreement" else None)
+        """Per-node ensemble disagreement, what the ``disagreement`` planner aims at
+        (`core.dual.disagreement`)."""
         self.unit = LatentScale(latent_dim, horizon=MODEL_SCALE_HORIZON)
         """The latent's running mean and RMS spread over a longer horizon (`LatentScale`): the local models'
         units (``world_models = repaired``) and the repaired r_int's unit."""
@@ -183,6 +188,8 @@ class LocalWorldModels:
         (the intrinsic check's learnable regions lost their progress that way)."""
         if self.readings.world_models.normalised:
             self.bank.latent_scale = self.unit.scale
+            if self.disagreement is not None:
+                self.disagreement.follow_scale(self.unit.scale)
 
     def _follow(self, events: ItmEvents) -> None:
         if events.removed:
@@ -196,6 +203,8 @@ class LocalWorldModels:
                 self.heldout.reset_nodes(list(events.added))
             if self.lagged_progress is not None:
                 self.lagged_progress.reset_nodes(list(events.added))
+            if self.disagreement is not None:
+                self.disagreement.reset_nodes(list(events.added))
 
     def _set_resolution(self, distance: float | None) -> None:
         """Set the ITM's e_max to the L2 threshold `distance` (squared if the map compares squared ones)."""
@@ -206,6 +215,8 @@ class LocalWorldModels:
         self.lp.reset_nodes(nodes)
         if self.lagged_progress is not None:
             self.lagged_progress.reset_nodes(nodes)
+        if self.disagreement is not None:
+            self.disagreement.reset_nodes(nodes)
         if self._memory is not None:
             self._memory.reset(nodes)
         if self.heldout is not None:
@@ -270,6 +281,8 @@ class LocalWorldModels:
             if self._memory is not None:
                 self._memory.add(node, phi[0], action[0], float(reward_ext), next_phi[0], float(terminated))
         self.lp.record([node], [error])
+        if self.disagreement is not None:
+            self.disagreement.record_and_learn(node, phi, action, float(reward_ext), next_phi)
         if self.lagged_progress is not None:
             self.lagged_progress.record(node, error, phi, action, float(reward_ext), next_phi)
             if old is not None or not held_out:
@@ -315,7 +328,8 @@ class LocalWorldModels:
 
     def aim_field(self, aim: str) -> RegionField | None:
         """The planner's aim (``dual.planner``'s `Planner.aim`) as a smooth field over the latent: one value
-        per live region (`LaggedProgress.relative` or `HeldOutReliability.relative_error`), placed at the
+        per live region (`LaggedProgress.relative`, `EnsembleDisagreement.relative` or
+        `HeldOutReliability.relative_error`), placed at the
         region's node in the map's coordinates, width e_max. None without a map, before its first state, or
         no aim."""
         if aim == "none" or self.itm is None or not self.itm.initialised:
@@ -325,6 +339,9 @@ class LocalWorldModels:
             assert self.lagged_progress is not None
             unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
             values = self.lagged_progress.relative(regions, unit)
+        elif aim == "disagreement":
+            assert self.disagreement is not None
+            values = self.disagreement.relative(regions, self.unit.scale)
         else:
             assert self.heldout is not None
             values = self.heldout.relative_error(regions)
@@ -426,6 +443,8 @@ class LocalWorldModels:
             state["heldout"] = self.heldout.state_dict()
         if self.lagged_progress is not None:
             state["lagged_progress"] = self.lagged_progress.state_dict()
+        if self.disagreement is not None:
+            state["disagreement"] = self.disagreement.state_dict()
         state["generator"] = {"state": self.bank.generator.get_state()}
         state["unit"] = self.unit.state_dict()
         return state
@@ -448,6 +467,8 @@ class LocalWorldModels:
             self.heldout.load_state_dict(state["heldout"])
         if self.lagged_progress is not None:
             self.lagged_progress.load_state_dict(state["lagged_progress"])
+        if self.disagreement is not None:
+            self.disagreement.load_state_dict(state["disagreement"])
         self.bank.generator.set_state(state["generator"]["state"])
 
 

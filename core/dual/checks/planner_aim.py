@@ -7,7 +7,8 @@ the learning progress of the regions a plan reaches (`core.dual.planning.optimis
 `RegionField`), so the planner should steer toward the region whose dynamics are being learnt, leave it once
 it is learnt, and spend no more time in a noisy TV than a random walk does. The ``novelty`` reading
 (prediction error in place of progress) is the contrast: prediction error stays high in the noise, so it
-should be drawn there.
+should be drawn there; ``disagreement`` (an ensemble's variance, Plan2Explore's aim) is the peer that aims at
+uncertainty rather than progress.
 
 The controlled problem is `core.envs.three_regions.ThreeRegionsEnv` (a trivial, a learnable and a noise
 third of the square), with no extrinsic reward. The dual system is the agents' own: φ = the observation (the
@@ -82,9 +83,12 @@ def _shares(regions: np.ndarray) -> dict[str, float]:
 
 
 def planner_aim_check(dual: DualConfig, steps: int = 12000, seeds: int = 3) -> dict[str, float]:
-    """The JSON figures (module docstring): ``progress_…``, ``novelty_…`` and ``random_walk_…`` shares."""
+    """The JSON figures (module docstring): ``progress_…``, ``novelty_…``, ``disagreement_…`` and
+    ``random_walk_…`` shares."""
     out: dict[str, float] = {}
-    for name, reading in (("progress", "progress"), ("novelty", "novelty"), ("random_walk", None)):
+    planners = (("progress", "progress"), ("novelty", "novelty"), ("disagreement", "disagreement"),
+                ("random_walk", None))
+    for name, reading in planners:
         config = None if reading is None else dataclasses.replace(dual, planner=reading)
         figures = [_shares(visits(config, steps, seed)) for seed in range(seeds)]
         for key in figures[0]:

@@ -42,6 +42,7 @@ import torch
 
 from core.dual.model_bank import ModelBank
 from core.dual.readings import Planner
+from core.dual.region_field import RegionField
 
 ActorFn = Callable[[torch.Tensor], torch.Tensor]
 ObjectiveFn = Callable[[np.ndarray, float], tuple[float, np.ndarray]]
@@ -62,6 +63,12 @@ def per_step_objective(rewards: np.ndarray, r_star: float) -> tuple[float, np.nd
     return 0.5 * float(residual @ residual), -residual
 
 
+def return_objective(rewards: np.ndarray, r_star: float) -> tuple[float, np.ndarray]:
+    """The aiming planners' extrinsic part: L_plan = −Σ_h r̂_h, the predicted return maximised (R* unused: a
+    target return would push the plan away from rewards above it)."""
+    return -float(rewards.sum()), np.full(rewards.shape[0], -1.0)
+
+
 def sgd_step(plan: np.ndarray, grad: np.ndarray, lr: float) -> None:
     """Eq. 7 as printed: â ← â − α ∇L_plan."""
     plan -= lr * grad
@@ -74,7 +81,8 @@ def normalised_step(plan: np.ndarray, grad: np.ndarray, lr: float) -> None:
         plan -= lr * grad / norm
 
 
-OBJECTIVES: dict[str, ObjectiveFn] = {"sum": sum_objective, "per_step": per_step_objective}
+OBJECTIVES: dict[str, ObjectiveFn] = {"sum": sum_objective, "per_step": per_step_objective,
+                                      "return": return_objective}
 """`Planner.objective` → its L_plan."""
 STEPS: dict[str, StepFn] = {"sgd": sgd_step, "normalised": normalised_step}
 """`Planner.optimiser` → its Eq. 7 step."""
@@ -171,8 +179,11 @@ def optimise_plan(
     steps: int = 10,
     lr: float = 1e-3,
     r_star: float = 1.0,
+    aim: RegionField | None = None,
+    aim_scale: float = 0.0,
 ) -> PlanResult:
-    """Eq. 7: K steps on L_plan from the rollout's actions, as ``planner`` reads them (module docstring)."""
+    """Eq. 7: K steps on L_plan from the rollout's actions, as ``planner`` reads them (module docstring);
+    with ``aim``, L_plan − ``aim_scale`` · Σ_h g(φ̂_{h+1}) (`RegionField`: the planner's aim)."""
     if rollout.depth == 0:
         raise ValueError("optimise_plan needs a rollout of depth >= 1 (the meta-controller chose model-free)")
     objective, step = OBJECTIVES[planner.objective], STEPS[planner.optimiser]
@@ -184,13 +195,13 @@ def optimise_plan(
         np.clip(plan, -1.0, 1.0, out=plan)
     initial_loss = None
     for _ in range(steps):
-        loss, grad = model.loss_and_grad(start, plan, objective, r_star)
+        loss, grad = model.loss_and_grad(start, plan, objective, r_star, aim, aim_scale)
         if initial_loss is None:
             initial_loss = loss
         step(plan, grad, lr)
         if project:
             np.clip(plan, -1.0, 1.0, out=plan)
-    final_loss, _ = model.loss_and_grad(start, plan, objective, r_star)
+    final_loss, _ = model.loss_and_grad(start, plan, objective, r_star, aim, aim_scale)
     if initial_loss is None:
         initial_loss = final_loss
     plan_t = torch.from_numpy(plan).to(torch.float32)
@@ -214,8 +225,10 @@ class _PlanModel:
         self.latent_dim = bank.latent_dim
 
     def loss_and_grad(
-        self, phi: np.ndarray, plan: np.ndarray, objective: ObjectiveFn, r_star: float
+        self, phi: np.ndarray, plan: np.ndarray, objective: ObjectiveFn, r_star: float,
+        aim: RegionField | None = None, aim_scale: float = 0.0,
     ) -> tuple[float, np.ndarray]:
+        """L_plan (minus ``aim_scale`` · Σ_h g(φ̂_{h+1}) with an ``aim``) and its gradient w.r.t. the plan."""
         horizon = plan.shape[0]
         model, d = self.model, self.latent_dim
         passes = []
@@ -227,9 +240,16 @@ class _PlanModel:
             rewards[h] = out.reward
             current = out.latent
         loss, d_rewards = objective(rewards, r_star)
+        d_latents = None
+        if aim is not None:
+            g, grad = aim(np.stack([out.latent for out in passes]))
+            loss -= aim_scale * float(g.sum())
+            d_latents = -aim_scale * grad  # dL/dφ̂_{h+1} of the aim term, row h
         grad = np.empty_like(plan)
         d_next = np.zeros(d)  # dL/dφ̂_{h+1}, flowing back from later steps
         for h in reversed(range(horizon)):
+            if d_latents is not None:
+                d_next = d_next + d_latents[h]
             out, g_output, g_reward = passes[h], d_next, d_rewards[h]
             if model.released:  # σ′ and tanh′, in this loop's own order of products (float64 plans unchanged)
                 g_output = d_next * (out.output * (1.0 - out.output))

@@ -20,7 +20,9 @@ constants are `HeldOut`.
   same minus its mean over the live regions (a control); repaired — +c·held-out progress of the destination
   region.
 - planner (`Planner`): paper — (R* − Σ r̂)², plain gradient, only the executed action clipped; released —
-  ½ Σ (1 − r̂)², otherwise paper; repaired — (R* − Σ r̂)², normalised steps, every plan action clipped.
+  ½ Σ (1 − r̂)², otherwise paper; repaired — (R* − Σ r̂)², normalised steps, every plan action clipped;
+  progress — the predicted return plus c · the learning progress of the regions the plan reaches, maximised,
+  steps and clip as repaired; novelty — the same with the regions' prediction error instead of progress.
 - imagination (`Imagination`): paper (= the released code) — the act-time rollout in B_latent, all kept, no
   termination head; repaired — learn-time rollouts, the no-change gate, a termination head;
   repaired_no_termination — repaired without the head, the one combination a shipped experiment ran that is
@@ -160,13 +162,21 @@ class Intrinsic:
 class Planner:
     """Gradient MPC (Eq. 6-7).
 
-    ``objective``: (R* − Σ r̂)² (Eq. 6), or ½ Σ (1 − r̂)² (released code). ``optimiser``, Eq. 7's step: the
-    plain gradient, or the gradient scaled to length α (a step in action units). ``clip``: only the executed
-    action to [−1, 1], or every plan action after every step (a projection)."""
+    ``objective``: (R* − Σ r̂)² (Eq. 6), ½ Σ (1 − r̂)² (released code), or −Σ r̂, the predicted return
+    maximised (with an aim). ``optimiser``, Eq. 7's step: the plain gradient, or the gradient scaled to length
+    α (a step in action units). ``clip``: only the executed action to [−1, 1], or every plan action after
+    every step (a projection). ``aim``: what the plan seeks beside the predicted reward, c · Σ_h g(φ̂_{h+1})
+    with c = ``dual.intrinsic_scale`` and g a smooth field over the latent built from one value per region
+    (`core.dual.planning.RegionField`): none; ``progress`` — the region's held-out learning progress beyond
+    z standard errors, over its no-change error (large where a model is improving, about 0 where it has
+    converged and where the outcome is noise); ``novelty`` — the region's model error over its no-change
+    error (prediction-error curiosity: large where the model is wrong, noise included); ``disagreement`` — the
+    variance of an ensemble of the region's models (Plan2Explore, MAX: epistemic uncertainty)."""
 
-    objective: Literal["sum", "per_step"]
+    objective: Literal["sum", "per_step", "return"]
     optimiser: Literal["sgd", "normalised"]
     clip: Literal["executed", "every_step"]
+    aim: Literal["none", "progress", "novelty", "disagreement"] = "none"
 
 
 @dataclass(frozen=True)
@@ -220,7 +230,14 @@ PLANNER: dict[str, Planner] = {
     "paper": Planner(objective="sum", optimiser="sgd", clip="executed"),
     "released": Planner(objective="per_step", optimiser="sgd", clip="executed"),
     "repaired": Planner(objective="sum", optimiser="normalised", clip="every_step"),
+    "progress": Planner(objective="return", optimiser="normalised", clip="every_step", aim="progress"),
+    "novelty": Planner(objective="return", optimiser="normalised", clip="every_step", aim="novelty"),
+    "disagreement": Planner(objective="return", optimiser="normalised", clip="every_step",
+                            aim="disagreement"),
 }
+"""``progress`` and ``novelty`` are no reading of the text or the code: planners that aim before the first
+reward (issue 50; docs/dual-system.md, "A planner that aims"). ``novelty`` is the ablation that replaces
+learning progress by prediction error; ``disagreement`` the peer that aims at the models' uncertainty."""
 IMAGINATION: dict[str, Imagination] = {
     "paper": Imagination(source="act_time", gate="none", termination=False),
     "repaired": Imagination(source="learn_time", gate="no_change_ratio", termination=True),
@@ -249,7 +266,8 @@ class Readings:
     @property
     def needs_heldout(self) -> bool:
         """Whether a reading uses held-out verdicts (reliability, intrinsic progress, imagination gate)."""
-        return self.reliability.held_out or not self.intrinsic.from_lp or self.imagination.gated
+        return (self.reliability.held_out or not self.intrinsic.from_lp or self.imagination.gated
+                or self.planner.aim == "novelty")
 
 
 def resolve(dual: DualConfig) -> Readings:

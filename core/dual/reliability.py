@@ -322,6 +322,13 @@ class HeldOutReliability:
         self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
         return self.progress[ids].copy()
 
+    def relative_error(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
+        """Prediction error the novelty planner aims at (``dual.planner = novelty``): the node's error ratio
+        to "nothing changes", clipped to [0, 1]; 1 while undefined (an unjudged region is unknown)."""
+        ids = np.asarray(nodes, dtype=np.int64).reshape(-1)
+        self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
+        return np.clip(np.nan_to_num(self.ratio[ids], nan=1.0), 0.0, 1.0)
+
     def share(self, nodes: np.ndarray | list[int] | int, max_ratio: float = 1.0) -> np.ndarray:
         """`share_from_ratio` of each node's held-out ratio (0 while undefined)."""
         ids = np.asarray(nodes, dtype=np.int64).reshape(-1)

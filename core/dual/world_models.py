@@ -44,11 +44,14 @@ import torch
 
 from core.config import DualConfig
 from core.dual.capacity import grown_capacity
+from core.dual.disagreement import EnsembleDisagreement
 from core.dual.itm import InstantaneousTopologicalMap, ItmEvents
 from core.dual.itm_resolution import LatentScale, RelativeResolution
+from core.dual.lagged_progress import LaggedProgress
 from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
 from core.dual.readings import Readings
+from core.dual.region_field import RegionField
 from core.dual.reliability import HeldOutReliability
 
 REGION_SCALE_HORIZON = 200
@@ -138,6 +141,12 @@ class LocalWorldModels:
         )
         if self.heldout is not None:
             self.heldout.reset_nodes(np.arange(capacity))
+        self.lagged_progress = LaggedProgress(self.bank) if read.planner.aim == "progress" else None
+        """γ-Progress per node, what the ``progress`` planner aims at (`core.dual.lagged_progress`)."""
+        self.disagreement = (EnsembleDisagreement(self.bank, seed=int(self.bank.generator.initial_seed()) + 1)
+                             if read.planner.aim == "disagreement" else None)
+        """Per-node ensemble disagreement, what the ``disagreement`` planner aims at
+        (`core.dual.disagreement`)."""
         self.unit = LatentScale(latent_dim, horizon=MODEL_SCALE_HORIZON)
         """The latent's running mean and RMS spread over a longer horizon (`LatentScale`): the local models'
         units (``world_models = repaired``) and the repaired r_int's unit."""
@@ -179,6 +188,8 @@ class LocalWorldModels:
         (the intrinsic check's learnable regions lost their progress that way)."""
         if self.readings.world_models.normalised:
             self.bank.latent_scale = self.unit.scale
+            if self.disagreement is not None:
+                self.disagreement.follow_scale(self.unit.scale)
 
     def _follow(self, events: ItmEvents) -> None:
         if events.removed:
@@ -190,6 +201,10 @@ class LocalWorldModels:
                 self._memory.reset(list(events.added))
             if self.heldout is not None:
                 self.heldout.reset_nodes(list(events.added))
+            if self.lagged_progress is not None:
+                self.lagged_progress.reset_nodes(list(events.added))
+            if self.disagreement is not None:
+                self.disagreement.reset_nodes(list(events.added))
 
     def _set_resolution(self, distance: float | None) -> None:
         """Set the ITM's e_max to the L2 threshold `distance` (squared if the map compares squared ones)."""
@@ -198,6 +213,10 @@ class LocalWorldModels:
 
     def _reset(self, nodes: list[int]) -> None:
         self.lp.reset_nodes(nodes)
+        if self.lagged_progress is not None:
+            self.lagged_progress.reset_nodes(nodes)
+        if self.disagreement is not None:
+            self.disagreement.reset_nodes(nodes)
         if self._memory is not None:
             self._memory.reset(nodes)
         if self.heldout is not None:
@@ -262,6 +281,12 @@ class LocalWorldModels:
             if self._memory is not None:
                 self._memory.add(node, phi[0], action[0], float(reward_ext), next_phi[0], float(terminated))
         self.lp.record([node], [error])
+        if self.disagreement is not None:
+            self.disagreement.record_and_learn(node, phi, action, float(reward_ext), next_phi)
+        if self.lagged_progress is not None:
+            self.lagged_progress.record(node, error, phi, action, float(reward_ext), next_phi)
+            if old is not None or not held_out:
+                self.lagged_progress.after_update([node])
         if self.heldout is not None:
             no_change = float(self.bank.errors(phi, torch.zeros(1), next_phi, reward)[0])
             self.heldout.record(node, error, no_change)
@@ -300,6 +325,29 @@ class LocalWorldModels:
         assert self.heldout is not None
         unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
         return self.config.intrinsic_scale * self.heldout.progress_of(regions) / unit
+
+    def aim_field(self, aim: str) -> RegionField | None:
+        """The planner's aim (``dual.planner``'s `Planner.aim`) as a smooth field over the latent: one value
+        per live region (`LaggedProgress.relative`, `EnsembleDisagreement.relative` or
+        `HeldOutReliability.relative_error`), placed at the
+        region's node in the map's coordinates, width e_max. None without a map, before its first state, or
+        no aim."""
+        if aim == "none" or self.itm is None or not self.itm.initialised:
+            return None
+        regions = self.itm.alive_ids()
+        if aim == "progress":
+            assert self.lagged_progress is not None
+            unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
+            values = self.lagged_progress.relative(regions, unit)
+        elif aim == "disagreement":
+            assert self.disagreement is not None
+            values = self.disagreement.relative(regions, self.unit.scale)
+        else:
+            assert self.heldout is not None
+            values = self.heldout.relative_error(regions)
+        width = self.itm.e_max if self.itm.distance == "l2" else float(np.sqrt(self.itm.e_max))
+        map_unit = None if self.scale is None else float(self.scale.scale)
+        return RegionField(self.itm.weights(regions), values, width=width, unit=map_unit)
 
     def alive_regions(self) -> np.ndarray:
         """The live regions' ids (node 0 alone without a map, or before the map's first state)."""
@@ -349,6 +397,8 @@ class LocalWorldModels:
         errors = self.bank.update(nodes, phi, action, next_phi, reward_ext, terminated)
         if self.heldout is not None:
             self.heldout.evaluate(torch.unique(nodes).numpy())
+        if self.lagged_progress is not None:
+            self.lagged_progress.after_update(nodes.numpy())
         return errors
 
     # ------------------------------------------------------------------ queries
@@ -391,6 +441,10 @@ class LocalWorldModels:
             state["scale"] = self.scale.state_dict()
         if self.heldout is not None:
             state["heldout"] = self.heldout.state_dict()
+        if self.lagged_progress is not None:
+            state["lagged_progress"] = self.lagged_progress.state_dict()
+        if self.disagreement is not None:
+            state["disagreement"] = self.disagreement.state_dict()
         state["generator"] = {"state": self.bank.generator.get_state()}
         state["unit"] = self.unit.state_dict()
         return state
@@ -411,6 +465,10 @@ class LocalWorldModels:
         self._sync_model_space()
         if self.heldout is not None:
             self.heldout.load_state_dict(state["heldout"])
+        if self.lagged_progress is not None:
+            self.lagged_progress.load_state_dict(state["lagged_progress"])
+        if self.disagreement is not None:
+            self.disagreement.load_state_dict(state["disagreement"])
         self.bank.generator.set_state(state["generator"]["state"])
 
 

@@ -123,3 +123,13 @@ def test_centred_paper_intrinsic_reward_is_the_paper_signal_minus_its_mean_over_
     centred = np.array([world.intrinsic_reward(int(n), torch.zeros(2)) for n in regions])
     np.testing.assert_allclose(centred, paper - paper.mean(), atol=1e-12)
     assert abs(centred.mean()) < 1e-12
+
+
+
+def test_novelty_is_the_error_ratio_to_no_change_clipped_and_unknown_counts_as_novel() -> None:
+    world = _world("dual.planner=novelty")
+    held = world.heldout
+    held.ensure_capacity(3)
+    held.ratio[:3] = [0.3, 1.4, np.nan]
+    np.testing.assert_allclose(held.relative_error([0, 1, 2]), [0.3, 1.0, 1.0])
+    assert world.aim_field("novelty") is None  # no map: a global model has no regions to aim at

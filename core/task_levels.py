@@ -23,6 +23,7 @@ and how many grasp attempts an episode allows. Everything else — the 64×32 to
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 
@@ -50,6 +51,19 @@ class TaskLevel:
     way out (``hard`` since study 2; docs/environment.md)."""
 
 
+HARD = TaskLevel(
+    name="hard",
+    summary="paper, with the glass at least 30° from the start and one grasp attempt per episode",
+    shoulder_window_deg=(-100.0, 100.0),
+    start_deg=0.0,
+    min_glass_offset_deg=30.0,
+    hand="learned",
+    hands=("learned",),
+    attempts_per_episode=1,
+    charge_early_topple=True,
+)
+"""``hard``, named: ``seen`` is this level with another window."""
+
 LEVELS: dict[str, TaskLevel] = {
     level.name: level
     for level in (
@@ -73,27 +87,12 @@ LEVELS: dict[str, TaskLevel] = {
             hands=("learned", "auto"),
             attempts_per_episode=None,
         ),
-        TaskLevel(
-            name="hard",
-            summary="paper, with the glass at least 30° from the start and one grasp attempt per episode",
-            shoulder_window_deg=(-100.0, 100.0),
-            start_deg=0.0,
-            min_glass_offset_deg=30.0,
-            hand="learned",
-            hands=("learned",),
-            attempts_per_episode=1,
-            charge_early_topple=True,
-        ),
-        TaskLevel(
+        HARD,
+        dataclasses.replace(  # everything else as hard: only the window differs
+            HARD,
             name="seen",
             summary="hard, with the shoulder window 0°-100°: the camera sees the arm over the whole window",
             shoulder_window_deg=(0.0, 100.0),
-            start_deg=0.0,
-            min_glass_offset_deg=30.0,
-            hand="learned",
-            hands=("learned",),
-            attempts_per_episode=1,
-            charge_early_topple=True,
         ),
     )
 }

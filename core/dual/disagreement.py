@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from core.dual.capacity import grown_capacity
 from core.dual.model_bank import ModelBank
 
 MEMBERS = 5
@@ -47,7 +48,7 @@ class EnsembleDisagreement:
     def _grow(self, node: int) -> None:
         if node < self.value.shape[0]:
             return
-        pad = max(node + 1, 2 * self.value.shape[0]) - self.value.shape[0]
+        pad = grown_capacity(self.value.shape[0], node + 1) - self.value.shape[0]
         self.value = np.concatenate([self.value, np.zeros(pad)])
         self.count = np.concatenate([self.count, np.zeros(pad, dtype=np.int64)])
 

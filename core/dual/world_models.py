@@ -196,15 +196,7 @@ class LocalWorldModels:
             self._reset(list(events.removed))
         if events.added:
             self.bank.reset_nodes(list(events.added), parents=list(events.parents))
-            self.lp.reset_nodes(list(events.added))
-            if self._memory is not None:
-                self._memory.reset(list(events.added))
-            if self.heldout is not None:
-                self.heldout.reset_nodes(list(events.added))
-            if self.lagged_progress is not None:
-                self.lagged_progress.reset_nodes(list(events.added))
-            if self.disagreement is not None:
-                self.disagreement.reset_nodes(list(events.added))
+            self._reset(list(events.added))  # after the bank: the lagged copies start as the new models
 
     def _set_resolution(self, distance: float | None) -> None:
         """Set the ITM's e_max to the L2 threshold `distance` (squared if the map compares squared ones)."""
@@ -212,6 +204,7 @@ class LocalWorldModels:
             self.itm.e_max = distance if self.itm.distance == "l2" else distance * distance
 
     def _reset(self, nodes: list[int]) -> None:
+        """Every per-node state but the bank's, of new nodes or freed ones (a model is reset on reuse)."""
         self.lp.reset_nodes(nodes)
         if self.lagged_progress is not None:
             self.lagged_progress.reset_nodes(nodes)
@@ -280,19 +273,20 @@ class LocalWorldModels:
             error = float(errors[0])
             if self._memory is not None:
                 self._memory.add(node, phi[0], action[0], float(reward_ext), next_phi[0], float(terminated))
+        stepped = old is not None or not held_out  # the node's model took an Eq. 5 step
         self.lp.record([node], [error])
         if self.disagreement is not None:
             self.disagreement.record_and_learn(node, phi, action, float(reward_ext), next_phi)
         if self.lagged_progress is not None:
             self.lagged_progress.record(node, error, phi, action, float(reward_ext), next_phi)
-            if old is not None or not held_out:
+            if stepped:
                 self.lagged_progress.after_update([node])
         if self.heldout is not None:
             no_change = float(self.bank.errors(phi, torch.zeros(1), next_phi, reward)[0])
             self.heldout.record(node, error, no_change)
         self.unit.observe(phi[0])
         self._sync_model_space()
-        if self.heldout is not None and (old is not None or not held_out):
+        if self.heldout is not None and stepped:
             self.heldout.after_update([node])
         return TransitionFeedback(error=error, intrinsic_reward=self.intrinsic_reward(node, next_phi))
 

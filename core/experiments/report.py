@@ -35,6 +35,11 @@ Scores of one finished cell, from its run directory:
   the arbitration gave the model-based system (Alg. 2 lines 12-19: ``dual/mb_decisions`` over
   ``dual/mb_decisions`` + ``dual/mf_decisions``, summed over all training episodes); NaN for a run without
   those columns (the model-free methods, RND).
+* ``model_error_ratio`` — a diagnostic of the dual-system methods: the world models' Eq. 8 error over that of
+  "nothing changes" (φ̂′ = φ_t, r̂ = 0) on the real transitions of the second half of the training episodes
+  (``dual/model_error`` summed over those episodes, over ``dual/no_change_error`` summed over the same
+  episodes); below 1 the models predict the latent's motion better than standing still — the dual system's
+  premise (issue 51); NaN without those columns.
 
 Measures a file lists under ``episode_measures`` (metrics.csv columns an env writes per episode, e.g. the
 noisy TV's ``env/noise_share``) are scores too: per cell, the column's mean over the second half of the
@@ -80,18 +85,19 @@ METRICS: dict[str, str] = {
     "value_gap": "Start value − discounted return",
     "greedy_value_gap": "Greedy start value − discounted return",
     "planner_share": "Planner share of training steps",
+    "model_error_ratio": "Model error / no-change error (late half)",
 }
 """Reported scores and their table names."""
 BOOTSTRAPPED = (
     "auc", "final_perf", "train_success", "success", "eval_return", "first_success", "train_length",
-    "best_eval_return", "value_gap", "greedy_value_gap", "planner_share",
+    "best_eval_return", "value_gap", "greedy_value_gap", "planner_share", "model_error_ratio",
 )
 """Scores with their own bootstrap (``auc_from_minus1`` is an affine map of ``auc``)."""
 FIRST_RETURN_GOAL = "first_return_goal"
 """The score key of the env step of the first greedy return ≥ the file's ``return_goal``."""
 DIAGNOSTICS = (
     "first_success", "train_length", "best_eval_return", "value_gap", "greedy_value_gap", "planner_share",
-    FIRST_RETURN_GOAL,
+    "model_error_ratio", FIRST_RETURN_GOAL,
 )
 """Reported with IQM and CI, but neither better when higher nor compared with the baseline."""
 
@@ -178,6 +184,18 @@ def _planner_share(model_based: np.ndarray | None, model_free: np.ndarray | None
     return float(planned / total) if total > 0 else math.nan
 
 
+def _late_error_ratio(model: np.ndarray | None, no_change: np.ndarray | None) -> float:
+    """Σ model error / Σ no-change error over the second half's episodes where both are finite (NaN: no
+    columns, or no such episode)."""
+    if model is None or no_change is None:
+        return math.nan
+    half = len(model) // 2
+    model, no_change = model[half:], no_change[half:]
+    both = np.isfinite(model) & np.isfinite(no_change)
+    denominator = float(no_change[both].sum())
+    return float(model[both].sum()) / denominator if both.any() and denominator > 0 else math.nan
+
+
 def _first_reaching(steps: list[float], values: np.ndarray | None, goal: float) -> float | None:
     """The step of the first finite value ≥ ``goal`` (None: no such value)."""
     if values is None:
@@ -245,6 +263,8 @@ def read_cell(
                                            _column(rows, "eval/discounted_return"), VALUE_GAP_EVALS),
             "planner_share": _planner_share(_column(rows, "dual/mb_decisions"),
                                             _column(rows, "dual/mf_decisions")),
+            "model_error_ratio": _late_error_ratio(_column(rows, "dual/model_error"),
+                                                   _column(rows, "dual/no_change_error")),
             **{measure: _second_half_mean(_column(rows, measure)) for measure in measures},
             **goal_scores,
         },
@@ -630,6 +650,10 @@ def render_markdown(spec: ExperimentSpec, report: dict[str, Any]) -> str:
         "Per seed over training: `value_traces.png`.",
         "- **Planner share of training steps** (diagnostic, dual-system methods): the share of the training "
         "steps whose action the arbitration gave the model-based system (empty for the other methods).",
+        "- **Model error / no-change error (late half)** (diagnostic, dual-system methods): the world "
+        "models' Eq. 8 error summed over the second half's training episodes, over the same sum for "
+        "predicting that nothing changes; below 1 the models beat standing still (empty for the other "
+        "methods).",
         *(
             [f"- **{', '.join(f'`{m}`' for m in spec.episode_measures)}**: the env's own per-episode "
              "measures (metrics.csv columns), per run the mean over the second half of its training "

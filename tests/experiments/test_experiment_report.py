@@ -203,7 +203,8 @@ def test_learning_curves_share_an_env_step_grid(made_up: Path) -> None:
 def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> None:
     """Best greedy return is the best of the periodic and final evaluations; the value gap is the mean of
     start value − discounted return over the last 10 training episodes (the greedy one: over the last 3
-    greedy evaluations); the planner share is the model-based decisions over all decisions of the run; runs
+    greedy evaluations); the planner share is the model-based decisions over all decisions of the run; the
+    model error ratio is the second half's summed model error over its summed no-change error; runs
     without those columns give none; all are diagnostics, never compared with a baseline."""
     root = tmp_path / "diag"
     root.mkdir()
@@ -220,7 +221,8 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
             writer.writerow(["episode", "global_step", "charts/episodic_return", "charts/success",
                              "eval/return", "charts/start_value", "charts/discounted_return",
                              "env/noise_share", "eval/start_value", "eval/discounted_return",
-                             "dual/mb_decisions", "dual/mf_decisions"])
+                             "dual/mb_decisions", "dual/mf_decisions", "dual/model_error",
+                             "dual/no_change_error"])
             for episode in range(1, 21):
                 found = 90.0 + seed if episode == 10 else ""  # a greedy 90 (seed 1: 91) mid-run, then lost
                 value = 100.0 if episode > 10 else 1.0  # the critic's value climbs in the last 10 episodes
@@ -231,8 +233,12 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
                 greedy_earned = 40.0 if evaluated else ""
                 # the planner decides 3 of 4 steps early, then 1 of 4 (seed 0) or 1 of 5 (seed 1)
                 planned, unplanned = (3, 1) if episode <= 10 else (1, 3 + seed)
+                # the models lose to "nothing changes" early (error 9 against 1); late, errors 1 and 2
+                # (seed 0) or 3 (seed 1) alternate against a no-change error of 4: ratios 1.5/4, 2/4
+                model_error = 9.0 if episode <= 10 else (1.0 if episode % 2 else 2.0 + seed)
+                no_change = "" if episode == 20 else (1.0 if episode <= 10 else 4.0)  # episode 20 unlogged
                 writer.writerow([episode, 5 * episode, 0.0, 0, found, value, 40.0 - seed, noise,
-                                 greedy_value, greedy_earned, planned, unplanned])
+                                 greedy_value, greedy_earned, planned, unplanned, model_error, no_change])
     report = build_report(root)
     m, b = report["methods"]["M"]["sparse"], report["methods"]["B"]["sparse"]
     assert m["best_eval_return"]["mean"] == pytest.approx(90.5)  # periodic 90 / 91 beat the final 5.0
@@ -245,6 +251,9 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
     assert "value_gap" not in m["prob_improvement"] and "best_eval_return" not in m["prob_improvement"]
     assert m["planner_share"]["mean"] == pytest.approx(np.mean([40 / 80, 40 / 90]))  # summed over the run
     assert b["planner_share"]["n"] == 0 and "planner_share" not in m["prob_improvement"]
+    # episodes 11-19 with both errors: seed 0 → (5·1 + 4·2) / (9·4), seed 1 → (5·1 + 4·3) / (9·4)
+    assert m["model_error_ratio"]["mean"] == pytest.approx(np.mean([13 / 36, 17 / 36]))
+    assert b["model_error_ratio"]["n"] == 0 and "model_error_ratio" not in m["prob_improvement"]
     # An episode measure: the mean of its second half per run, compared with the baseline where B has it
     assert m["env/noise_share"]["mean"] == pytest.approx(0.05) and m["env/noise_share"]["n"] == 2
     assert b["env/noise_share"]["n"] == 0

@@ -19,11 +19,24 @@ the region is not trusted the action is uniform random (the random walk's). The 
 
 Figures, averaged over seeds: each planner's share of steps in the learnable region over the first and the
 second half of the run, its share in the noise over the whole run, and the random walk's.
+
+`aim_signals` checks what the planners aim at before any planner acts: under uniform visits (a random walk
+restarted at a uniform position every ``reset_every`` steps, the same transitions fed to one world per aim),
+the mean value each aim gives the nodes of each third, every ``every`` steps. The issue's requirement on the
+signal: large where a model is improving, about zero where it has converged and where the target is noise.
+`aim_signal_summary` averages it over seeds and counts, per report step, the seeds whose top-valued third is
+each third. ``python -m core.dual.checks.planner_aim signals --seeds 100-104`` prints that summary as JSON
+lines; ``… check --seeds 100-109`` the shares above; ``… machinery --seeds 100-109`` the same planner
+aiming at the truth (`OracleAimWorld`: 1 on the learnable third's nodes), gated by arbitration and planning
+everywhere — whether the planner can use an aim at all, apart from any signal.
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import json
+from collections.abc import Sequence
 
 import numpy as np
 import torch
@@ -31,6 +44,7 @@ import torch
 from core.config import DualConfig
 from core.dual.meta_controller import MetaController
 from core.dual.readings import resolve
+from core.dual.region_field import RegionField
 from core.dual.world_models import LocalWorldModels
 from core.envs.three_regions import REGIONS, ThreeRegionsEnv, region_of
 
@@ -42,17 +56,46 @@ def _zero_actor(phi: torch.Tensor) -> torch.Tensor:
     return torch.zeros(phi.reshape(-1, 3).shape[0], 2)
 
 
-def visits(dual: DualConfig | None, steps: int, seed: int) -> np.ndarray:
-    """Region index of every step's new position: the planner of ``dual`` (None: the random walk)."""
+class OracleAimWorld(LocalWorldModels):
+    """The machinery check's world: the aim is the truth — 1 at the nodes in the learnable third, 0
+    elsewhere — so what the planner does with it measures the planner (gate, field, horizon), not a signal;
+    ``plan_everywhere`` also trusts every region (the arbitration gate removed)."""
+
+    def __init__(self, *args, plan_everywhere: bool = False, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.plan_everywhere = plan_everywhere
+
+    def reliable(self, node: int) -> bool:
+        return True if self.plan_everywhere else super().reliable(node)
+
+    def aim_field(self, aim: str) -> RegionField | None:
+        if self.itm is None or not self.itm.initialised or self.scale is None:
+            return None
+        regions = self.itm.alive_ids()
+        centres, unit = self.itm.weights(regions), float(self.scale.scale)
+        values = (region_of(centres[:, 0] * unit) == REGIONS.index("learnable")).astype(np.float64)
+        return RegionField(centres, values, width=self.itm.e_max, unit=unit)
+
+
+def visits(dual: DualConfig | None, steps: int, seed: int,
+           oracle: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Region index of every step's new position, and whether the planner chose the step's action: the
+    planner of ``dual`` (None: the random walk); with ``oracle`` = ``gated`` or ``everywhere``, aiming at the
+    truth (`OracleAimWorld`)."""
     env = ThreeRegionsEnv(max_steps=steps)
     rng = np.random.default_rng(seed)
     obs, _ = env.reset(seed=seed)
     world = meta = None
     if dual is not None:
-        world = LocalWorldModels(dual, 3, 2, generator=torch.Generator().manual_seed(seed),
-                                 readings=resolve(dual))
+        generator = torch.Generator().manual_seed(seed)
+        if oracle is None:
+            world = LocalWorldModels(dual, 3, 2, generator=generator, readings=resolve(dual))
+        else:
+            world = OracleAimWorld(dual, 3, 2, generator=generator, readings=resolve(dual),
+                                   plan_everywhere=oracle == "everywhere")
         meta = MetaController(world, dual)
     regions = np.zeros(steps, dtype=np.int64)
+    planned = np.zeros(steps, dtype=bool)
     for step in range(steps):
         phi = torch.from_numpy(obs.astype(np.float32))
         action = rng.uniform(-1.0, 1.0, size=2)
@@ -60,6 +103,7 @@ def visits(dual: DualConfig | None, steps: int, seed: int) -> np.ndarray:
             node = world.observe_state(phi)
             decision = meta.decide(phi, node, _zero_actor)
             if decision.model_based:
+                planned[step] = True
                 action = np.clip(decision.action.numpy() + PLAN_NOISE * rng.normal(size=2), -1.0, 1.0)
         nxt, _, terminated, truncated, _ = env.step(action.astype(np.float32))
         if world is not None:
@@ -69,28 +113,144 @@ def visits(dual: DualConfig | None, steps: int, seed: int) -> np.ndarray:
         obs = nxt
         if terminated or truncated:
             obs, _ = env.reset()
-    return regions
+    return regions, planned
 
 
-def _shares(regions: np.ndarray) -> dict[str, float]:
+def _shares(visited: tuple[np.ndarray, np.ndarray]) -> dict[str, float]:
+    regions, planned = visited
     half = regions.size // 2
     learnable, noise = REGIONS.index("learnable"), REGIONS.index("noise")
     return {
         "learnable_share_first_half": float((regions[:half] == learnable).mean()),
         "learnable_share_second_half": float((regions[half:] == learnable).mean()),
         "noise_share": float((regions == noise).mean()),
+        "planned": float(planned.mean()),
     }
 
 
-def planner_aim_check(dual: DualConfig, steps: int = 12000, seeds: int = 3) -> dict[str, float]:
+AIMS = ("progress", "novelty", "disagreement")
+"""The aiming planners' readings (`core.dual.readings.Planner.aim`)."""
+
+
+def aim_signals(dual: DualConfig, steps: int = 9000, seed: int = 100, reset_every: int = 200,
+                every: int = 1000) -> list[dict[str, float | int | str]]:
+    """Each aim's mean value over the live nodes of each third under uniform visits (module docstring): one
+    row per (report step, aim) with ``step``, ``aim`` and the ``trivial``/``learnable``/``noise`` means (NaN
+    where a third has no node yet)."""
+    env = ThreeRegionsEnv(max_steps=steps)
+    rng = np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    worlds = {}
+    for aim in AIMS:
+        config = dataclasses.replace(dual, planner=aim)
+        worlds[aim] = LocalWorldModels(config, 3, 2, generator=torch.Generator().manual_seed(seed),
+                                       readings=resolve(config))
+    rows: list[dict[str, float | int | str]] = []
+    for step in range(1, steps + 1):
+        phi = torch.from_numpy(obs.astype(np.float32))
+        action = rng.uniform(-1.0, 1.0, size=2).astype(np.float32)
+        nxt, _, _, _, _ = env.step(action)
+        for world in worlds.values():
+            node = world.observe_state(phi)
+            world.learn_transition(node, phi, torch.from_numpy(action), 0.0, torch.from_numpy(nxt))
+        obs = nxt
+        if step % reset_every == 0:
+            obs, _ = env.reset()
+        if step % every:
+            continue
+        for aim, world in worlds.items():
+            field = world.aim_field(aim)
+            row: dict[str, float | int | str] = {"step": step, "aim": aim}
+            third = region_of(field.centres[:, 0] * field.unit) if field is not None else np.zeros(0)
+            for index, name in enumerate(REGIONS):
+                chosen = field.values[third == index] if field is not None else np.zeros(0)
+                row[name] = round(float(chosen.mean()), 4) if chosen.size else float("nan")
+            rows.append(row)
+    return rows
+
+
+def machinery_check(dual: DualConfig, steps: int = 6000, seeds: int = 10,
+                    first_seed: int = 100) -> dict[str, float]:
+    """The planner with the true aim (`OracleAimWorld`), gated by arbitration and planning everywhere, beside
+    the random walk: ``oracle_gated_…``, ``oracle_everywhere_…`` and ``random_walk_…`` shares, with the share
+    of steps the planner chose (``…_planned``)."""
+    out: dict[str, float] = {}
+    config = dataclasses.replace(dual, planner="progress")
+    runs = (("oracle_gated", config, "gated"), ("oracle_everywhere", config, "everywhere"),
+            ("random_walk", None, None))
+    for name, run_config, oracle in runs:
+        figures = [_shares(visits(run_config, steps, seed, oracle))
+                   for seed in range(first_seed, first_seed + seeds)]
+        for key in figures[0]:
+            out[f"{name}_{key}"] = round(float(np.mean([f[key] for f in figures])), 3)
+    return out
+
+
+def planner_aim_check(dual: DualConfig, steps: int = 12000, seeds: int = 3,
+                      first_seed: int = 100) -> dict[str, float]:
     """The JSON figures (module docstring): ``progress_…``, ``novelty_…``, ``disagreement_…`` and
-    ``random_walk_…`` shares."""
+    ``random_walk_…`` shares, over seeds ``first_seed`` … (tuning seeds ≥ 100; the first table in
+    docs/dual-system.md ran seeds 0-9)."""
     out: dict[str, float] = {}
     planners = (("progress", "progress"), ("novelty", "novelty"), ("disagreement", "disagreement"),
                 ("random_walk", None))
     for name, reading in planners:
         config = None if reading is None else dataclasses.replace(dual, planner=reading)
-        figures = [_shares(visits(config, steps, seed)) for seed in range(seeds)]
+        figures = [_shares(visits(config, steps, seed)) for seed in range(first_seed, first_seed + seeds)]
         for key in figures[0]:
             out[f"{name}_{key}"] = round(float(np.mean([f[key] for f in figures])), 3)
     return out
+
+
+def aim_signal_summary(dual: DualConfig, seeds: Sequence[int], steps: int = 9000,
+                       every: int = 1000) -> list[dict[str, object]]:
+    """`aim_signals` over ``seeds``: per (step, aim), each third's mean value over seeds and ``top``, how many
+    seeds valued each third highest."""
+    runs = [aim_signals(dual, steps=steps, seed=seed, every=every) for seed in seeds]
+    summary: list[dict[str, object]] = []
+    for index, first in enumerate(runs[0]):
+        rows = [run[index] for run in runs]
+        means = {name: round(float(np.nanmean([row[name] for row in rows])), 4) for name in REGIONS}
+        top = dict.fromkeys(REGIONS, 0)
+        for row in rows:
+            values = {name: float(row[name]) for name in REGIONS if np.isfinite(float(row[name]))}
+            top[max(values, key=values.__getitem__)] += 1
+        summary.append({"step": first["step"], "aim": first["aim"], **means, "top": top})
+    return summary
+
+
+def _seed_range(text: str) -> list[int]:
+    first, _, last = text.partition("-")
+    return list(range(int(first), int(last or first) + 1))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m core.dual.checks.planner_aim {signals,check} --seeds A-B [--steps N]``: JSON lines."""
+    from core.config import load_config
+
+    parser = argparse.ArgumentParser(prog="python -m core.dual.checks.planner_aim",
+                                     description=(__doc__ or "").split("\n")[0])
+    parser.add_argument("what", choices=("signals", "check", "machinery"),
+                        help="the aims' values per third, the planners' shares, or the oracle aim's")
+    parser.add_argument("--seeds", type=_seed_range, default=_seed_range("100-104"), help="e.g. 100-104")
+    parser.add_argument("--steps", type=int, default=None,
+                        help="9000 (signals), 8000 (check) or 6000 (machinery)")
+    args = parser.parse_args(argv)
+    dual = load_config("default").dual
+    torch.set_num_threads(1)
+    if args.what == "signals":
+        for row in aim_signal_summary(dual, args.seeds, steps=args.steps or 9000):
+            print(json.dumps(row))
+    elif args.what == "machinery":
+        shares = machinery_check(dual, steps=args.steps or 6000, seeds=len(args.seeds),
+                                 first_seed=args.seeds[0])
+        print(json.dumps(shares))
+    else:
+        shares = planner_aim_check(dual, steps=args.steps or 8000, seeds=len(args.seeds),
+                                   first_seed=args.seeds[0])
+        print(json.dumps(shares))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

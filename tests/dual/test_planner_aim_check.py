@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+
+import numpy as np
+import torch
 
 from core.config import load_config
 from core.dual.checks.planner_aim import AIMS, aim_signals
@@ -19,3 +23,23 @@ def test_aim_signals_report_each_aim_per_third_and_novelty_ranks_the_noise_above
     # Prediction error stays high where the outcome is noise and falls where nothing changes: the property
     # that draws a novelty planner to a noisy TV.
     assert last["novelty"]["trivial"] < last["novelty"]["noise"]
+
+
+def test_the_oracle_aim_is_the_learnable_third_and_planning_everywhere_plans_every_step():
+    from core.dual.checks.planner_aim import OracleAimWorld, visits
+    from core.dual.readings import resolve
+    from core.envs.three_regions import REGIONS, region_of
+
+    dual = dataclasses.replace(load_config("default").dual, planner="progress")
+    regions, planned = visits(dual, steps=300, seed=100, oracle="everywhere")
+    assert planned.all() and regions.shape == (300,)
+    regions, planned = visits(None, steps=300, seed=100)  # the random walk never plans
+    assert not planned.any()
+    world = OracleAimWorld(dual, 3, 2, generator=torch.Generator().manual_seed(0), readings=resolve(dual))
+    rng = np.random.default_rng(0)
+    for point in rng.uniform(-1.0, 1.0, size=(400, 2)):
+        world.observe_state(torch.tensor([point[0], point[1], 0.0], dtype=torch.float32))
+    field = world.aim_field("progress")
+    third = region_of(field.centres[:, 0] * field.unit)
+    assert set(np.unique(third)) == {0, 1, 2}  # nodes in every third
+    np.testing.assert_array_equal(field.values, (third == REGIONS.index("learnable")).astype(float))

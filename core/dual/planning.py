@@ -42,7 +42,7 @@ import torch
 
 from core.dual.model_bank import ModelBank
 from core.dual.readings import Planner
-from core.dual.region_field import RegionField
+from core.dual.region_goal import RegionGoal
 
 ActorFn = Callable[[torch.Tensor], torch.Tensor]
 ObjectiveFn = Callable[[np.ndarray, float], tuple[float, np.ndarray]]
@@ -179,11 +179,11 @@ def optimise_plan(
     steps: int = 10,
     lr: float = 1e-3,
     r_star: float = 1.0,
-    aim: RegionField | None = None,
+    aim: RegionGoal | None = None,
     aim_scale: float = 0.0,
 ) -> PlanResult:
     """Eq. 7: K steps on L_plan from the rollout's actions, as ``planner`` reads them (module docstring);
-    with ``aim``, L_plan − ``aim_scale`` · Σ_h g(φ̂_{h+1}) (`RegionField`: the planner's aim)."""
+    with ``aim``, L_plan − ``aim_scale`` · Σ_h g(φ̂_{h+1}) (`RegionGoal`: the planner's aim)."""
     if rollout.depth == 0:
         raise ValueError("optimise_plan needs a rollout of depth >= 1 (the meta-controller chose model-free)")
     objective, step = OBJECTIVES[planner.objective], STEPS[planner.optimiser]
@@ -226,7 +226,7 @@ class _PlanModel:
 
     def loss_and_grad(
         self, phi: np.ndarray, plan: np.ndarray, objective: ObjectiveFn, r_star: float,
-        aim: RegionField | None = None, aim_scale: float = 0.0,
+        aim: RegionGoal | None = None, aim_scale: float = 0.0,
     ) -> tuple[float, np.ndarray]:
         """L_plan (minus ``aim_scale`` · Σ_h g(φ̂_{h+1}) with an ``aim``) and its gradient w.r.t. the plan."""
         horizon = plan.shape[0]

@@ -51,7 +51,7 @@ from core.dual.lagged_progress import LaggedProgress
 from core.dual.learning_progress import LearningProgress
 from core.dual.model_bank import ModelBank
 from core.dual.readings import Readings
-from core.dual.region_field import RegionField
+from core.dual.region_goal import RegionGoal
 from core.dual.reliability import HeldOutReliability
 
 REGION_SCALE_HORIZON = 200
@@ -320,12 +320,11 @@ class LocalWorldModels:
         unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
         return self.config.intrinsic_scale * self.heldout.progress_of(regions) / unit
 
-    def aim_field(self, aim: str) -> RegionField | None:
-        """The planner's aim (``dual.planner``'s `Planner.aim`) as a smooth field over the latent: one value
-        per live region (`LaggedProgress.relative`, `EnsembleDisagreement.relative` or
-        `HeldOutReliability.relative_error`), placed at the
-        region's node in the map's coordinates, width e_max. None without a map, before its first state, or
-        no aim."""
+    def aim_goal(self, aim: str) -> RegionGoal | None:
+        """The planner's aim (``dual.planner``'s `Planner.aim`) as a goal on the map: one value per live
+        region (`LaggedProgress.relative`, `EnsembleDisagreement.relative` or
+        `HeldOutReliability.relative_error`) at the region's node in the map's coordinates, the goal their
+        value-weighted centre (`RegionGoal`). None without a map, before its first state, or no aim."""
         if aim == "none" or self.itm is None or not self.itm.initialised:
             return None
         regions = self.itm.alive_ids()
@@ -339,9 +338,8 @@ class LocalWorldModels:
         else:
             assert self.heldout is not None
             values = self.heldout.relative_error(regions)
-        width = self.itm.e_max if self.itm.distance == "l2" else float(np.sqrt(self.itm.e_max))
         map_unit = None if self.scale is None else float(self.scale.scale)
-        return RegionField(self.itm.weights(regions), values, width=width, unit=map_unit)
+        return RegionGoal(self.itm.weights(regions), values, unit=map_unit)
 
     def alive_regions(self) -> np.ndarray:
         """The live regions' ids (node 0 alone without a map, or before the map's first state)."""

@@ -39,7 +39,7 @@ def test_the_oracle_aim_is_the_learnable_third_and_planning_everywhere_plans_eve
     rng = np.random.default_rng(0)
     for point in rng.uniform(-1.0, 1.0, size=(400, 2)):
         world.observe_state(torch.tensor([point[0], point[1], 0.0], dtype=torch.float32))
-    field = world.aim_field("progress")
+    field = world.aim_goal("progress")
     third = region_of(field.centres[:, 0] * field.unit)
     assert set(np.unique(third)) == {0, 1, 2}  # nodes in every third
     np.testing.assert_array_equal(field.values, (third == REGIONS.index("learnable")).astype(float))

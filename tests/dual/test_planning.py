@@ -189,37 +189,39 @@ def test_hand_written_gradient_equals_autograd_for_a_delta_model_in_normalised_u
     torch.testing.assert_close(plan - one.plan, grad, atol=1e-5, rtol=1e-4)
 
 
-def test_region_field_is_the_soft_region_value_and_its_gradient_is_exact() -> None:
-    from core.dual.region_field import RegionField
+def test_region_goal_is_the_value_weighted_centre_and_its_pull_is_exact() -> None:
+    from core.dual.region_goal import RegionGoal
 
     centres = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]])
-    field = RegionField(centres, np.array([0.0, 1.0, 0.5]), width=1.0, unit=2.0)
-    deep, _ = field(np.array([[4.0, 0.0]]) * 1.5)  # u = (3, 0): far into node 1's side
-    assert deep[0] == pytest.approx(1.0, abs=0.02)
+    goal = RegionGoal(centres, np.array([0.0, 1.0, 0.5]), unit=2.0)
+    np.testing.assert_allclose(goal.goal, [4.0 / 3.0, 2.0 / 3.0])  # (1·(2, 0) + 0.5·(0, 2)) / 1.5
+    far, _ = goal(np.array([[4.0 / 3.0 + 6.0, 2.0 / 3.0]]) * 2.0)  # u = 6 map units beyond the goal
+    assert far[0] == pytest.approx(-6.0, rel=1e-6)  # − v_max · distance, v_max = 1
     latents = np.array([[1.0, 0.4], [0.3, 1.5], [2.2, -0.7]])
-    _, grad = field(latents)
+    _, grad = goal(latents)
     eps = 1e-6
     for row in range(latents.shape[0]):
         for dim in range(2):
             up, down = latents.copy(), latents.copy()
             up[row, dim] += eps
             down[row, dim] -= eps
-            numeric = (field(up)[0][row] - field(down)[0][row]) / (2 * eps)
+            numeric = (goal(up)[0][row] - goal(down)[0][row]) / (2 * eps)
             assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
+    none, none_grad = RegionGoal(centres, np.zeros(3))(latents)  # no value anywhere: no aim
+    assert not none.any() and not none_grad.any()
 
 
 def test_an_aimed_plan_gradient_is_exact_and_steps_toward_the_aim() -> None:
     """The aim term's gradient, back-propagated through the models by hand, against finite differences; with
-    no reward to follow, the plan moves its predicted latents up the field."""
+    no reward to follow, the plan moves its predicted latents toward the goal."""
     from core.dual.planning import OBJECTIVES, _PlanModel
-    from core.dual.region_field import RegionField
+    from core.dual.region_goal import RegionGoal
 
     bank, nodes, phi, plan = _random_setup()
     model = _PlanModel(bank, nodes)
     start = phi.double().numpy()
     actions = plan.double().numpy()
-    field = RegionField(np.array([[0.0, 0.0, 0.0, 0.0], [1.0, 1.0, 1.0, 1.0]]), np.array([0.0, 1.0]),
-                        width=0.5)
+    field = RegionGoal(np.array([[0.0, 0.0, 0.0, 0.0], [1.0, 1.0, 1.0, 1.0]]), np.array([0.0, 1.0]))
     _, grad = model.loss_and_grad(start, actions, OBJECTIVES["return"], 1.0, field, 0.7)
     eps = 1e-6
     for h in range(actions.shape[0]):

@@ -132,4 +132,4 @@ def test_novelty_is_the_error_ratio_to_no_change_clipped_and_unknown_counts_as_n
     held.ensure_capacity(3)
     held.ratio[:3] = [0.3, 1.4, np.nan]
     np.testing.assert_allclose(held.relative_error([0, 1, 2]), [0.3, 1.0, 1.0])
-    assert world.aim_field("novelty") is None  # no map: a global model has no regions to aim at
+    assert world.aim_goal("novelty") is None  # no map: a global model has no regions to aim at

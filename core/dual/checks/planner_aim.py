@@ -3,8 +3,8 @@ drawn to noise (``dual.planner = progress``; issue 50).
 
 Purpose: before the first extrinsic reward a planner whose objective holds only the predicted reward has
 nothing to aim at (its optimal plan is to stand still under an action cost). The ``progress`` reading adds
-the learning progress of the regions a plan reaches (`core.dual.planning.optimise_plan` with a
-`RegionField`), so the planner should steer toward the region whose dynamics are being learnt, leave it once
+a pull toward the regions of largest learning progress (`core.dual.planning.optimise_plan` with a
+`RegionGoal`), so the planner should steer toward the region whose dynamics are being learnt, leave it once
 it is learnt, and spend no more time in a noisy TV than a random walk does. The ``novelty`` reading
 (prediction error in place of progress) is the contrast: prediction error stays high in the noise, so it
 should be drawn there; ``disagreement`` (an ensemble's variance, Plan2Explore's aim) is the peer that aims at
@@ -44,7 +44,7 @@ import torch
 from core.config import DualConfig
 from core.dual.meta_controller import MetaController
 from core.dual.readings import resolve
-from core.dual.region_field import RegionField
+from core.dual.region_goal import RegionGoal
 from core.dual.world_models import LocalWorldModels
 from core.envs.three_regions import REGIONS, ThreeRegionsEnv, region_of
 
@@ -68,13 +68,13 @@ class OracleAimWorld(LocalWorldModels):
     def reliable(self, node: int) -> bool:
         return True if self.plan_everywhere else super().reliable(node)
 
-    def aim_field(self, aim: str) -> RegionField | None:
+    def aim_goal(self, aim: str) -> RegionGoal | None:
         if self.itm is None or not self.itm.initialised or self.scale is None:
             return None
         regions = self.itm.alive_ids()
         centres, unit = self.itm.weights(regions), float(self.scale.scale)
         values = (region_of(centres[:, 0] * unit) == REGIONS.index("learnable")).astype(np.float64)
-        return RegionField(centres, values, width=self.itm.e_max, unit=unit)
+        return RegionGoal(centres, values, unit=unit)
 
 
 def visits(dual: DualConfig | None, steps: int, seed: int,
@@ -159,7 +159,7 @@ def aim_signals(dual: DualConfig, steps: int = 9000, seed: int = 100, reset_ever
         if step % every:
             continue
         for aim, world in worlds.items():
-            field = world.aim_field(aim)
+            field = world.aim_goal(aim)
             row: dict[str, float | int | str] = {"step": step, "aim": aim}
             third = region_of(field.centres[:, 0] * field.unit) if field is not None else np.zeros(0)
             for index, name in enumerate(REGIONS):

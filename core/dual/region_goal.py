@@ -1,0 +1,52 @@
+"""The aiming planners' goal: the value-weighted centre of the map's regions, and the pull toward it.
+
+The planner's aim (``dual.planner`` = ``progress``, ``novelty`` or ``disagreement``;
+`core.dual.readings.Planner.aim`) is a value per ITM region — its learning progress, prediction error or
+ensemble disagreement. `RegionGoal` turns those values into one goal in the map's coordinates u(φ) (φ, or
+φ / s with a normalised map), the centre of the live nodes c_n weighted by their values v_n, and a term the
+plan maximises (Eq. 7's gradient MPC, `core.dual.planning.optimise_plan`):
+
+    ḡ = Σ_n v_n c_n / Σ_n v_n,   g(φ) = −v_max · √(‖u(φ) − ḡ‖² + ε²),   v_max = max_n v_n,
+
+so a plan is pulled toward where the values lie from anywhere on the map (the pull has unit length in u,
+scaled by the largest value: it fades as every region's value goes to 0, and the extrinsic return takes
+over), and ε (1e-3, map units) keeps it smooth at the goal. No value above 0: no aim (g = 0).
+
+Why a goal and not a field over the regions: a softmax field g(φ) = Σ_n softmax(−‖u − c_n‖²/2σ²)_n v_n (the
+first design) is flat deep inside a region, so it pulls only within about e_max of a boundary, and its
+gradient along latent directions no action moves outweighed the rest. On the controlled check with the true
+aim (`core.dual.checks.planner_aim.machinery_check`, docs/dual-system.md) the goal kept the planner in the
+learnable third far more than the field did.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+SMOOTHING = 1e-3
+"""ε of the pull's norm, in map units."""
+
+
+class RegionGoal:
+    """g(φ) and ∂g/∂φ from node positions ``centres [N, d]`` (map coordinates) and ``values [N]``."""
+
+    def __init__(self, centres: np.ndarray, values: np.ndarray, unit: float | None = None) -> None:
+        self.centres = np.asarray(centres, dtype=np.float64)
+        self.values = np.clip(np.asarray(values, dtype=np.float64).reshape(-1), 0.0, None)
+        if self.centres.shape[0] != self.values.shape[0]:
+            raise ValueError("one value per centre")
+        self.unit = 1.0 if unit is None else float(unit)
+        total = float(self.values.sum())
+        self.weight = float(self.values.max()) if total > 0.0 else 0.0
+        """v_max: the pull's length in u (0: no aim)."""
+        self.goal = self.values @ self.centres / total if total > 0.0 else None
+        """ḡ in map coordinates (None: no aim)."""
+
+    def __call__(self, latents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """g of each row of ``latents [H, d]`` (``[H]``) and its gradient w.r.t. the latent (``[H, d]``)."""
+        u = np.asarray(latents, dtype=np.float64).reshape(-1, self.centres.shape[1]) / self.unit
+        if self.goal is None:
+            return np.zeros(u.shape[0]), np.zeros_like(u)
+        diff = u - self.goal
+        distance = np.sqrt((diff * diff).sum(axis=1) + SMOOTHING**2)
+        return -self.weight * distance, -self.weight * diff / distance[:, None] / self.unit

@@ -3,22 +3,11 @@ publishes (greedy success, planner share, the models' error against "nothing cha
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
-ROOT = Path(__file__).resolve().parents[2]
-SCRIPT = ROOT / "scripts" / "cell_table.py"
-
-
-def _script():
-    spec = importlib.util.spec_from_file_location("cell_table", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from tests.utils.scripts import ROOT, load_script
 
 
 def test_study_5_rows_match_the_published_table():
-    rows = _script().cell_rows(ROOT / "results" / "study5-seen-grasp")
+    rows = load_script("cell_table").cell_rows(ROOT / "results" / "study5-seen-grasp")
     by_cell = {(r["method"], r["reward"], r["seed"]): r for r in rows}
     assert len(rows) >= 30 and rows[0]["reward"] == "sparse"  # sparse rows first
     i2a = by_cell[("DDPG+I2A", "dense", "1")]

@@ -3,22 +3,11 @@ docs/results.md publishes for study 3's MountainCar grid (so the 15-seed table i
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
-ROOT = Path(__file__).resolve().parents[2]
-SCRIPT = ROOT / "scripts" / "seed_table.py"
-
-
-def _script():
-    spec = importlib.util.spec_from_file_location("seed_table", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from tests.utils.scripts import ROOT, load_script
 
 
 def test_grid_1_goal_counts_and_probabilities_match_the_published_table():
-    script = _script()
+    script = load_script("seed_table")
     rows = script.method_rows(*script.collect(ROOT / "results" / "study3-mountaincar")[:3])
     kept = {label: row["kept ≥ goal"] for label, row in rows.items()}
     assert kept == {

@@ -234,7 +234,7 @@ def test_finding_and_keeping_and_overestimation_diagnostics(tmp_path: Path) -> N
                 # the planner decides 3 of 4 steps early, then 1 of 4 (seed 0) or 1 of 5 (seed 1)
                 planned, unplanned = (3, 1) if episode <= 10 else (1, 3 + seed)
                 # the models lose to "nothing changes" early (error 9 against 1); late, errors 1 and 2
-                # (seed 0) or 3 (seed 1) alternate against a no-change error of 4: ratios 1.5/4, 2/4
+                # (seed 0) or 3 (seed 1) alternate against a no-change error of 4 (sums below)
                 model_error = 9.0 if episode <= 10 else (1.0 if episode % 2 else 2.0 + seed)
                 no_change = "" if episode == 20 else (1.0 if episode <= 10 else 4.0)  # episode 20 unlogged
                 writer.writerow([episode, 5 * episode, 0.0, 0, found, value, 40.0 - seed, noise,

@@ -56,6 +56,11 @@ def _zero_actor(phi: torch.Tensor) -> torch.Tensor:
     return torch.zeros(phi.reshape(-1, 3).shape[0], 2)
 
 
+def _thirds(centres: np.ndarray, unit: float) -> np.ndarray:
+    """The third (`REGIONS` index) each node lies in, from its map coordinates and the map's unit."""
+    return region_of(centres[:, 0] * unit)
+
+
 class OracleAimWorld(LocalWorldModels):
     """The machinery check's world: the aim is the truth — 1 at the nodes in the learnable third, 0
     elsewhere — so what the planner does with it measures the planner (gate, field, horizon), not a signal;
@@ -73,7 +78,7 @@ class OracleAimWorld(LocalWorldModels):
             return None
         regions = self.itm.alive_ids()
         centres, unit = self.itm.weights(regions), float(self.scale.scale)
-        values = (region_of(centres[:, 0] * unit) == REGIONS.index("learnable")).astype(np.float64)
+        values = (_thirds(centres, unit) == REGIONS.index("learnable")).astype(np.float64)
         return RegionGoal(centres, values, unit=unit)
 
 
@@ -159,14 +164,22 @@ def aim_signals(dual: DualConfig, steps: int = 9000, seed: int = 100, reset_ever
         if step % every:
             continue
         for aim, world in worlds.items():
-            field = world.aim_goal(aim)
+            goal = world.aim_goal(aim)
+            values = np.zeros(0) if goal is None else goal.values
+            third = np.zeros(0) if goal is None else _thirds(goal.centres, goal.unit)
             row: dict[str, float | int | str] = {"step": step, "aim": aim}
-            third = region_of(field.centres[:, 0] * field.unit) if field is not None else np.zeros(0)
             for index, name in enumerate(REGIONS):
-                chosen = field.values[third == index] if field is not None else np.zeros(0)
+                chosen = values[third == index]
                 row[name] = round(float(chosen.mean()), 4) if chosen.size else float("nan")
             rows.append(row)
     return rows
+
+
+def _mean_shares(dual: DualConfig | None, steps: int, seeds: range, oracle: str | None = None,
+                 ) -> dict[str, float]:
+    """`_shares` of `visits` averaged over ``seeds``."""
+    figures = [_shares(visits(dual, steps, seed, oracle)) for seed in seeds]
+    return {key: round(float(np.mean([f[key] for f in figures])), 3) for key in figures[0]}
 
 
 def machinery_check(dual: DualConfig, steps: int = 6000, seeds: int = 10,
@@ -179,10 +192,8 @@ def machinery_check(dual: DualConfig, steps: int = 6000, seeds: int = 10,
     runs = (("oracle_gated", config, "gated"), ("oracle_everywhere", config, "everywhere"),
             ("random_walk", None, None))
     for name, run_config, oracle in runs:
-        figures = [_shares(visits(run_config, steps, seed, oracle))
-                   for seed in range(first_seed, first_seed + seeds)]
-        for key in figures[0]:
-            out[f"{name}_{key}"] = round(float(np.mean([f[key] for f in figures])), 3)
+        shares = _mean_shares(run_config, steps, range(first_seed, first_seed + seeds), oracle)
+        out.update({f"{name}_{key}": value for key, value in shares.items()})
     return out
 
 
@@ -196,9 +207,8 @@ def planner_aim_check(dual: DualConfig, steps: int = 12000, seeds: int = 3,
                 ("random_walk", None))
     for name, reading in planners:
         config = None if reading is None else dataclasses.replace(dual, planner=reading)
-        figures = [_shares(visits(config, steps, seed)) for seed in range(first_seed, first_seed + seeds)]
-        for key in figures[0]:
-            out[f"{name}_{key}"] = round(float(np.mean([f[key] for f in figures])), 3)
+        shares = _mean_shares(config, steps, range(first_seed, first_seed + seeds))
+        out.update({f"{name}_{key}": value for key, value in shares.items()})
     return out
 
 
@@ -225,7 +235,8 @@ def _seed_range(text: str) -> list[int]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m core.dual.checks.planner_aim {signals,check} --seeds A-B [--steps N]``: JSON lines."""
+    """``python -m core.dual.checks.planner_aim {signals,check,machinery} --seeds A-B [--steps N]``: JSON
+    lines."""
     from core.config import load_config
 
     parser = argparse.ArgumentParser(prog="python -m core.dual.checks.planner_aim",

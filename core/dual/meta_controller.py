@@ -6,8 +6,8 @@ At each step, with φ_t and its best-matching node n:
   model-based: the adaptive rollout of Alg. 1 (continue while the node of the current latent is reliable)
   sets the horizon H, the rollout's actor actions are the initial plan,
   K gradient steps on L_plan (Eq. 6-7, `core.dual.planning.optimise_plan`; with an aiming planner, minus
-  c · the aim's pull at the predicted latents, `LocalWorldModels.aim_goal`) give â^(K), whose first action
-  is returned;
+  c · the aim's pull at the predicted latents, `LocalWorldModels.aim_goal`, counted along the directions the
+  actions move at node n) give â^(K), whose first action is returned;
 - otherwise → model-free: μ(φ_t).
 
 Exploration noise is the caller's job (Alg. 2 line 20), as is storing the rollout's imagined
@@ -71,7 +71,7 @@ class MetaController:
             rollout = self.rollout(phi, node, actor)
             if rollout.depth > 0:
                 cfg = self.config
-                aim = self.world.aim_goal(self.planner.aim)
+                aim = self.world.aim_goal(self.planner.aim, node)
                 plan = optimise_plan(phi, rollout, self.world.bank, self.planner, steps=cfg.plan_steps,
                                      lr=cfg.plan_lr, r_star=cfg.r_star, aim=aim,
                                      aim_scale=cfg.intrinsic_scale)

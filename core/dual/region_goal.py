@@ -8,6 +8,8 @@ plan maximises (Eq. 7's gradient MPC, `core.dual.planning.optimise_plan`):
 
     ḡ = Σ_n v_n c_n / Σ_n v_n,   g(φ) = −v_max · √(‖u(φ) − ḡ‖² + ε²),   v_max = max_n v_n,
 
+(with ``moved`` = P, the orthogonal projection onto the latent directions the actions move where the plan
+starts, the distance is ‖P(u − ḡ)‖ and the pull acts only along those; `LocalWorldModels.moved_directions`),
 so a plan is pulled toward where the values lie from anywhere on the map (the pull has unit length in u,
 scaled by the largest value: it fades as every region's value goes to 0, and the extrinsic return takes
 over), and ε (1e-3, map units) keeps it smooth at the goal. No value above 0: no aim (g = 0).
@@ -30,7 +32,10 @@ SMOOTHING = 1e-3
 class RegionGoal:
     """g(φ) and ∂g/∂φ from node positions ``centres [N, d]`` (map coordinates) and ``values [N]``."""
 
-    def __init__(self, centres: np.ndarray, values: np.ndarray, unit: float | None = None) -> None:
+    def __init__(self, centres: np.ndarray, values: np.ndarray, unit: float | None = None,
+                 moved: np.ndarray | None = None) -> None:
+        self.moved = None if moved is None else np.asarray(moved, dtype=np.float64)
+        """P ``[d, d]``: the orthogonal projection onto the directions actions move the latent (None: all)."""
         self.centres = np.asarray(centres, dtype=np.float64)
         self.values = np.clip(np.asarray(values, dtype=np.float64).reshape(-1), 0.0, None)
         if self.centres.shape[0] != self.values.shape[0]:
@@ -48,5 +53,7 @@ class RegionGoal:
         if self.goal is None:
             return np.zeros(u.shape[0]), np.zeros_like(u)
         diff = u - self.goal
+        if self.moved is not None:
+            diff = diff @ self.moved  # P is symmetric: ‖P(u − ḡ)‖ and its gradient P(u − ḡ)/‖·‖
         distance = np.sqrt((diff * diff).sum(axis=1) + SMOOTHING**2)
         return -self.weight * distance, -self.weight * diff / distance[:, None] / self.unit

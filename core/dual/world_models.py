@@ -76,6 +76,10 @@ class TransitionFeedback:
     """r_int after recording the error (``dual.intrinsic``)."""
 
 
+MOVED_T = 3.0
+"""Least |t| of a coefficient of Δφ on the action that counts as moved (`moved_directions`)."""
+
+
 class LocalWorldModels:
     """ITM + per-node world models + per-node learning progress (Sections 2.2-2.3)."""
 
@@ -320,26 +324,58 @@ class LocalWorldModels:
         unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
         return self.config.intrinsic_scale * self.heldout.progress_of(regions) / unit
 
-    def aim_goal(self, aim: str) -> RegionGoal | None:
+    def aim_goal(self, aim: str, node: int | None = None) -> RegionGoal | None:
         """The planner's aim (``dual.planner``'s `Planner.aim`) as a goal on the map: one value per live
-        region (`LaggedProgress.relative`, `EnsembleDisagreement.relative` or
-        `HeldOutReliability.relative_error`) at the region's node in the map's coordinates, the goal their
-        value-weighted centre (`RegionGoal`). None without a map, before its first state, or no aim."""
+        region (`aim_values`) at the region's node in the map's coordinates, the goal their value-weighted
+        centre (`RegionGoal`). With ``node``, the pull counts only the directions the actions move the latent
+        there (`moved_directions`). None without a map, before its first state, or no aim."""
         if aim == "none" or self.itm is None or not self.itm.initialised:
             return None
         regions = self.itm.alive_ids()
+        map_unit = None if self.scale is None else float(self.scale.scale)
+        moved = None if node is None else self.moved_directions(node)
+        values = self.aim_values(aim, regions)
+        return RegionGoal(self.itm.weights(regions), values, unit=map_unit, moved=moved)
+
+    def aim_values(self, aim: str, regions: np.ndarray) -> np.ndarray:
+        """Each region's value for an aim: `LaggedProgress.relative` (progress),
+        `EnsembleDisagreement.relative` (disagreement) or `HeldOutReliability.relative_error` (novelty)."""
         if aim == "progress":
             assert self.lagged_progress is not None
             unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
-            values = self.lagged_progress.relative(regions, unit)
-        elif aim == "disagreement":
+            return self.lagged_progress.relative(regions, unit)
+        if aim == "disagreement":
             assert self.disagreement is not None
-            values = self.disagreement.relative(regions, self.unit.scale)
-        else:
-            assert self.heldout is not None
-            values = self.heldout.relative_error(regions)
-        map_unit = None if self.scale is None else float(self.scale.scale)
-        return RegionGoal(self.itm.weights(regions), values, unit=map_unit)
+            return self.disagreement.relative(regions, self.unit.scale)
+        assert self.heldout is not None
+        return self.heldout.relative_error(regions)
+
+    def moved_directions(self, node: int) -> np.ndarray | None:
+        """P ``[d, d]``: the projection onto the latent directions the actions move at ``node``, from its
+        stored real transitions — the least-squares fit Δφ ≈ B·a + c, its coefficients kept where they are
+        significant (|t| ≥ `MOVED_T`; a direction that changes at random, as a screen does, gets no spurious
+        tilt), and the span of B's columns — so that a goal's pull does not act through directions no action
+        moves (a half-trained model's spurious ∂φ̂/∂a there would decide the plan's direction;
+        docs/dual-system.md). None with fewer than 4·(|a| + 1) stored transitions."""
+        if self._memory is None:
+            return None
+        latent, action, _, next_latent, _ = self._memory.get(node)
+        count, actions = latent.shape[0], action.shape[1]
+        if count < 4 * (actions + 1):
+            return None
+        inputs = np.c_[action.double().numpy(), np.ones(count)]
+        change = (next_latent - latent).double().numpy()
+        coef = np.linalg.lstsq(inputs, change, rcond=None)[0]  # [action + 1, latent]
+        residual = ((change - inputs @ coef) ** 2).sum(axis=0) / (count - actions - 1)  # σ² per direction
+        inverse = np.diag(np.linalg.pinv(inputs.T @ inputs))[:actions]  # (XᵀX)⁻¹_jj per action
+        error = np.sqrt(np.maximum(residual[None, :] * inverse[:, None], 1e-30))
+        # B [latent, action]: the significant coefficients
+        moved = np.where(np.abs(coef[:actions]) >= MOVED_T * error, coef[:actions], 0.0).T
+        if not moved.any():
+            return None
+        basis, singular, _ = np.linalg.svd(moved, full_matrices=False)
+        basis = basis[:, singular > 1e-6 * float(singular.max())]
+        return basis @ basis.T
 
     def alive_regions(self) -> np.ndarray:
         """The live regions' ids (node 0 alone without a map, or before the map's first state)."""

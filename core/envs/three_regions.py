@@ -10,8 +10,10 @@ Observation ``(x, y, z)`` (float32): the point's position in [−1, 1]² and a s
 The region is the third of the square the point lands in, by x:
 
 - ``trivial`` (x < −1/3): the screen keeps its value (nothing but the position changes);
-- ``learnable`` (−1/3 ≤ x < 1/3): the screen shows ``sin(f·x + 2a_x) · cos(f·y − 2a_y)`` (f =
-  ``frequency``, 2), a deterministic function of where the point was and how it moved;
+- ``learnable`` (−1/3 ≤ x < 1/3): the screen shows ``sin(f·x + k·a_x) · cos(f·y − k·a_y)`` (f =
+  ``frequency``, 2; k = ``action_gain``, 2), a deterministic function of where the point was and how it
+  moved (the planner-aim check, `core.dual.checks.planner_aim`, uses f = k = 1: a function its local models
+  learn within its budget);
 - ``noise`` (x ≥ 1/3): the screen shows a uniform random value (the noisy TV).
 
 The extrinsic reward is always 0; ``info["region"]`` names the region of the new position. Episodes end by
@@ -56,10 +58,12 @@ class ThreeRegionsEnv(gym.Env):
 
     metadata: ClassVar[dict] = {"render_modes": []}
 
-    def __init__(self, max_steps: int = 200, speed: float = 0.05, frequency: float = 2.0) -> None:
+    def __init__(self, max_steps: int = 200, speed: float = 0.05, frequency: float = 2.0,
+                 action_gain: float = 2.0) -> None:
         self.max_steps = int(max_steps)
         self.speed = float(speed)
         self.frequency = float(frequency)
+        self.action_gain = float(action_gain)
         self.observation_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self._position = np.zeros(2)
@@ -96,16 +100,28 @@ class ThreeRegionsEnv(gym.Env):
         self._visit()
         return self._observation(), {"region": REGIONS[int(region_of(self._position[0]))]}
 
+    def transitions(self, starts: np.ndarray, screens: np.ndarray, actions: np.ndarray,
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """The dynamics of the module docstring for a batch: new positions ``[N, 2]`` and screens ``[N]`` from
+        positions ``starts [N, 2]``, screens ``[N]`` and actions ``[N, 2]`` (noise drawn from the env's
+        generator). `step` moves the point with it; checks use it to build test transitions."""
+        move = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 2), -1.0, 1.0)
+        starts = np.asarray(starts, dtype=np.float64).reshape(-1, 2)
+        positions = np.clip(starts + self.speed * move, -1.0, 1.0)
+        regions = region_of(positions[:, 0])
+        new = np.array(screens, dtype=np.float64).reshape(-1)
+        f, k = self.frequency, self.action_gain
+        learnable = regions == 1
+        new[learnable] = (np.sin(f * starts[learnable, 0] + k * move[learnable, 0])
+                          * np.cos(f * starts[learnable, 1] - k * move[learnable, 1]))
+        noise = regions == 2
+        new[noise] = self.np_random.uniform(-1.0, 1.0, size=int(noise.sum()))
+        return positions, new
+
     def step(self, action: np.ndarray):
-        move = np.clip(np.asarray(action, dtype=np.float64).reshape(2), -1.0, 1.0)
-        start = self._position
-        self._position = np.clip(start + self.speed * move, -1.0, 1.0)
+        positions, screens = self.transitions(self._position, np.array([self._screen]), action)
+        self._position, self._screen = positions[0], float(screens[0])
         region = int(region_of(self._position[0]))
-        if region == 1:
-            f = self.frequency
-            self._screen = float(np.sin(f * start[0] + 2.0 * move[0]) * np.cos(f * start[1] - 2.0 * move[1]))
-        elif region == 2:
-            self._screen = float(self.np_random.uniform(-1.0, 1.0))
         self._steps += 1
         self._noise_steps += int(region == 2)
         self._visit()

@@ -43,3 +43,15 @@ def test_the_oracle_aim_is_the_learnable_third_and_planning_everywhere_plans_eve
     third = region_of(field.centres[:, 0] * field.unit)
     assert set(np.unique(third)) == {0, 1, 2}  # nodes in every third
     np.testing.assert_array_equal(field.values, (third == REGIONS.index("learnable")).astype(float))
+
+
+def test_the_checks_learnable_third_is_learnt_in_budget_and_the_noise_third_cannot_be():
+    """The check's premise (docs/dual-system.md): under uniform visits the local models learn the learnable
+    third's screen well below "nothing changes" within 3 000 steps, while the noise third stays at or above
+    the floor of a model of the noise's mean (E(z′ − z̄)² / E(z′ − z)² = (1/3) / (2/3) for uniform screens)."""
+    from core.dual.checks.planner_aim import learnability
+
+    rows = learnability(load_config("default").dual, steps=3000, seed=100, every=1500, test_size=2000)
+    assert [row["step"] for row in rows] == [1500, 3000]
+    assert rows[-1]["learnable"] < 0.35, rows
+    assert rows[-1]["noise"] > 0.45, rows

@@ -211,6 +211,52 @@ def test_region_goal_is_the_value_weighted_centre_and_its_pull_is_exact() -> Non
     assert not none.any() and not none_grad.any()
 
 
+def test_a_goal_restricted_to_the_moved_directions_ignores_the_others_and_keeps_an_exact_gradient() -> None:
+    """With P, the pull is −v_max · ‖P(u − ḡ)‖: a latent that differs from the goal only along a direction
+    outside P's span is at the goal, and the gradient (checked by finite differences) lies in P's span."""
+    from core.dual.region_goal import RegionGoal
+
+    centres = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 1.0]])
+    moved = np.diag([1.0, 1.0, 0.0])  # actions move the first two directions only
+    goal = RegionGoal(centres, np.array([0.0, 1.0]), moved=moved)
+    value, grad = goal(np.array([[2.0, 0.0, -5.0], [0.5, 1.0, 3.0]]))
+    assert value[0] == pytest.approx(-1e-3)  # only ε away: the third direction does not count
+    assert grad[1, 2] == 0.0 and grad[1, 0] > 0.0  # pulled toward x = 2, not along the third direction
+    latents = np.array([[0.5, 1.0, 3.0], [1.2, -0.4, 0.2]])
+    _, grad = goal(latents)
+    eps = 1e-6
+    for row in range(2):
+        for dim in range(3):
+            up, down = latents.copy(), latents.copy()
+            up[row, dim] += eps
+            down[row, dim] -= eps
+            numeric = (goal(up)[0][row] - goal(down)[0][row]) / (2 * eps)
+            assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
+
+
+def test_the_moved_directions_are_those_the_actions_move_whatever_else_changes() -> None:
+    """`LocalWorldModels.moved_directions`: from a node's stored transitions where actions move the first two
+    latent directions and the third jumps now and then at random (a screen), P spans the first two."""
+    from core.config import load_config
+    from core.dual.readings import resolve
+    from core.dual.world_models import LocalWorldModels
+
+    dual = load_config("default").dual
+    world = LocalWorldModels(dual, 3, 2, generator=torch.Generator().manual_seed(0), readings=resolve(dual))
+    rng = np.random.default_rng(0)
+    phi = torch.zeros(3)
+    node = world.observe_state(phi)
+    assert world.moved_directions(node) is None  # nothing stored yet
+    for step in range(200):
+        action = rng.uniform(-1.0, 1.0, size=2)
+        jump = rng.uniform(-1.0, 1.0) if step % 10 == 0 else 0.0
+        nxt = phi + torch.tensor([0.05 * action[0], 0.05 * action[1], jump], dtype=torch.float32)
+        world.learn_transition(node, phi, torch.tensor(action, dtype=torch.float32), 0.0, nxt)
+    moved = world.moved_directions(node)
+    assert moved is not None
+    np.testing.assert_allclose(moved, np.diag([1.0, 1.0, 0.0]), atol=0.05)
+
+
 def test_an_aimed_plan_gradient_is_exact_and_steps_toward_the_aim() -> None:
     """The aim term's gradient, back-propagated through the models by hand, against finite differences; with
     no reward to follow, the plan moves its predicted latents toward the goal."""

@@ -51,6 +51,14 @@ def test_the_three_regions_dynamics() -> None:
     assert region_of(np.array([-0.5, 0.0, 0.5])).tolist() == [0, 1, 2]
 
 
+def test_the_learnable_screen_follows_frequency_and_action_gain() -> None:
+    env = ThreeRegionsEnv(frequency=1.0, action_gain=0.5)
+    env.reset(seed=0)
+    _place(env, 0.1, 0.5)
+    screen = env.step(np.array([0.4, -0.2], dtype=np.float32))[0][2]
+    np.testing.assert_allclose(screen, np.sin(0.1 + 0.5 * 0.4) * np.cos(0.5 + 0.5 * 0.2), rtol=1e-5)
+
+
 def test_episodes_truncate_after_max_steps() -> None:
     env = ThreeRegionsEnv(max_steps=3)
     env.reset(seed=0)

@@ -44,12 +44,21 @@ import torch
 from core.config import DualConfig
 from core.dual.meta_controller import MetaController
 from core.dual.readings import resolve
-from core.dual.region_goal import RegionGoal
 from core.dual.world_models import LocalWorldModels
 from core.envs.three_regions import REGIONS, ThreeRegionsEnv, region_of
 
 PLAN_NOISE = 0.3
 """Std of the Gaussian exploration noise around the plan's action (the learners' order of magnitude)."""
+
+CHECK_ENV = {"frequency": 1.0, "action_gain": 1.0}
+"""The check's ThreeRegions: a learnable screen sin(x + a_x)·cos(y − a_y) that the local models learn within
+the check's budget (`learnability`: under uniform visits its error ratio to "nothing changes" falls to about
+0.15 by 4 500 steps, where the environment's default, f = k = 2, stayed at 0.3-0.45; docs/dual-system.md)."""
+
+
+def check_env(steps: int) -> ThreeRegionsEnv:
+    """The check's environment (`CHECK_ENV`), one episode of ``steps`` steps."""
+    return ThreeRegionsEnv(max_steps=steps, **CHECK_ENV)
 
 
 def _zero_actor(phi: torch.Tensor) -> torch.Tensor:
@@ -73,13 +82,10 @@ class OracleAimWorld(LocalWorldModels):
     def reliable(self, node: int) -> bool:
         return True if self.plan_everywhere else super().reliable(node)
 
-    def aim_goal(self, aim: str) -> RegionGoal | None:
-        if self.itm is None or not self.itm.initialised or self.scale is None:
-            return None
-        regions = self.itm.alive_ids()
+    def aim_values(self, aim: str, regions: np.ndarray) -> np.ndarray:
+        assert self.itm is not None and self.scale is not None
         centres, unit = self.itm.weights(regions), float(self.scale.scale)
-        values = (_thirds(centres, unit) == REGIONS.index("learnable")).astype(np.float64)
-        return RegionGoal(centres, values, unit=unit)
+        return (_thirds(centres, unit) == REGIONS.index("learnable")).astype(np.float64)
 
 
 def visits(dual: DualConfig | None, steps: int, seed: int,
@@ -87,7 +93,7 @@ def visits(dual: DualConfig | None, steps: int, seed: int,
     """Region index of every step's new position, and whether the planner chose the step's action: the
     planner of ``dual`` (None: the random walk); with ``oracle`` = ``gated`` or ``everywhere``, aiming at the
     truth (`OracleAimWorld`)."""
-    env = ThreeRegionsEnv(max_steps=steps)
+    env = check_env(steps)
     rng = np.random.default_rng(seed)
     obs, _ = env.reset(seed=seed)
     world = meta = None
@@ -142,7 +148,7 @@ def aim_signals(dual: DualConfig, steps: int = 9000, seed: int = 100, reset_ever
     """Each aim's mean value over the live nodes of each third under uniform visits (module docstring): one
     row per (report step, aim) with ``step``, ``aim`` and the ``trivial``/``learnable``/``noise`` means (NaN
     where a third has no node yet)."""
-    env = ThreeRegionsEnv(max_steps=steps)
+    env = check_env(steps)
     rng = np.random.default_rng(seed)
     obs, _ = env.reset(seed=seed)
     worlds = {}
@@ -172,6 +178,56 @@ def aim_signals(dual: DualConfig, steps: int = 9000, seed: int = 100, reset_ever
                 chosen = values[third == index]
                 row[name] = round(float(chosen.mean()), 4) if chosen.size else float("nan")
             rows.append(row)
+    return rows
+
+
+def _test_transitions(env: ThreeRegionsEnv, count: int, seed: int) -> tuple[torch.Tensor, ...]:
+    """``count`` transitions from uniform positions, screens and actions: (φ, a, φ′, third of φ′)."""
+    rng = np.random.default_rng(seed)
+    starts, screens = rng.uniform(-1.0, 1.0, size=(count, 2)), rng.uniform(-1.0, 1.0, size=count)
+    actions = rng.uniform(-1.0, 1.0, size=(count, 2))
+    positions, new = env.transitions(starts, screens, actions)
+    phi = torch.tensor(np.c_[starts, screens], dtype=torch.float32)
+    nxt = torch.tensor(np.c_[positions, new], dtype=torch.float32)
+    return phi, torch.tensor(actions, dtype=torch.float32), nxt, torch.from_numpy(region_of(positions[:, 0]))
+
+
+def learnability(dual: DualConfig, steps: int = 6000, seed: int = 100, reset_every: int = 200,
+                 every: int = 1500, test_size: int = 3000) -> list[dict[str, float | int]]:
+    """The check's premise, measured before any aim is judged: under uniform visits (as `aim_signals`), the
+    local models' Eq. 8 error over that of "nothing changes", per third of the new position, on one fixed
+    set of ``test_size`` uniform test transitions (each predicted by the node its start falls in), every
+    ``every`` steps. The learnable third should fall well below 1 in the budget; the noise third cannot fall
+    below about 0.5 (a model of the noise's mean). The trivial third is left out: its screen keeps whatever
+    value the point carried in, so uniform test screens there lie off what its models saw, and "nothing
+    changes" is exact."""
+    env = check_env(steps)
+    rng = np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    world = LocalWorldModels(dual, 3, 2, generator=torch.Generator().manual_seed(seed),
+                             readings=resolve(dual))
+    phi, actions, nxt, third = _test_transitions(check_env(1), test_size, seed)
+    no_change = ((nxt - phi) ** 2).sum(dim=1)
+    rows: list[dict[str, float | int]] = []
+    for step in range(1, steps + 1):
+        state = torch.from_numpy(obs.astype(np.float32))
+        action = rng.uniform(-1.0, 1.0, size=2).astype(np.float32)
+        obs_next, _, _, _, _ = env.step(action)
+        node = world.observe_state(state)
+        world.learn_transition(node, state, torch.from_numpy(action), 0.0, torch.from_numpy(obs_next))
+        obs = obs_next
+        if step % reset_every == 0:
+            obs, _ = env.reset()
+        if step % every:
+            continue
+        with torch.no_grad():
+            nodes = torch.from_numpy(np.asarray(world.nearest_many(phi), dtype=np.int64))
+            errors = ((world.bank.predict(nodes, phi, actions).next_latent - nxt) ** 2).sum(dim=1)
+        row: dict[str, float | int] = {"step": step, "nodes": world.num_nodes}
+        for name in ("learnable", "noise"):
+            chosen = third == REGIONS.index(name)
+            row[name] = round(float(errors[chosen].sum() / no_change[chosen].sum()), 3)
+        rows.append(row)
     return rows
 
 
@@ -235,21 +291,26 @@ def _seed_range(text: str) -> list[int]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m core.dual.checks.planner_aim {signals,check,machinery} --seeds A-B [--steps N]``: JSON
-    lines."""
+    """``python -m core.dual.checks.planner_aim {learnability,signals,check,machinery} --seeds A-B
+    [--steps N]``: JSON lines."""
     from core.config import load_config
 
     parser = argparse.ArgumentParser(prog="python -m core.dual.checks.planner_aim",
                                      description=(__doc__ or "").split("\n")[0])
-    parser.add_argument("what", choices=("signals", "check", "machinery"),
-                        help="the aims' values per third, the planners' shares, or the oracle aim's")
+    parser.add_argument("what", choices=("learnability", "signals", "check", "machinery"),
+                        help="the models' error ratio per third, the aims' values per third, the planners' "
+                             "shares, or the oracle aim's")
     parser.add_argument("--seeds", type=_seed_range, default=_seed_range("100-104"), help="e.g. 100-104")
     parser.add_argument("--steps", type=int, default=None,
-                        help="9000 (signals), 8000 (check) or 6000 (machinery)")
+                        help="6000 (learnability), 9000 (signals), 8000 (check) or 6000 (machinery)")
     args = parser.parse_args(argv)
     dual = load_config("default").dual
     torch.set_num_threads(1)
-    if args.what == "signals":
+    if args.what == "learnability":
+        for seed in args.seeds:
+            for row in learnability(dual, steps=args.steps or 6000, seed=seed):
+                print(json.dumps({"seed": seed, **row}))
+    elif args.what == "signals":
         for row in aim_signal_summary(dual, args.seeds, steps=args.steps or 9000):
             print(json.dumps(row))
     elif args.what == "machinery":

@@ -16,6 +16,8 @@ The region is the third of the square the point lands in, by x:
   learn within its budget);
 - ``noise`` (x ≥ 1/3): the screen shows a uniform random value (the noisy TV).
 
+``layout`` reorders the thirds (default trivial | learnable | noise; the planner-aim check puts the
+learnable third at an edge, so that a goal at the map's centre is not the learnable third by geometry).
 The extrinsic reward is always 0; ``info["region"]`` names the region of the new position. Episodes end by
 truncation after ``max_steps`` steps; the start is uniform over the square. Registered as
 ``dualsys/ThreeRegions-v0`` (``core/envs/__init__.py``).
@@ -49,7 +51,8 @@ REST_COLUMNS = int(np.sum((np.arange(COVERAGE_CELLS) + 0.5) * 2.0 / COVERAGE_CEL
 
 
 def region_of(x: float | np.ndarray) -> np.ndarray:
-    """Index into `REGIONS` of the region at horizontal position ``x``."""
+    """Which third (0, 1, 2 left to right) horizontal position ``x`` lies in: the index into `REGIONS` of its
+    region under the default layout (`ThreeRegionsEnv.region_at` for another)."""
     return np.digitize(np.asarray(x), [-1.0 / 3.0, 1.0 / 3.0])
 
 
@@ -59,7 +62,12 @@ class ThreeRegionsEnv(gym.Env):
     metadata: ClassVar[dict] = {"render_modes": []}
 
     def __init__(self, max_steps: int = 200, speed: float = 0.05, frequency: float = 2.0,
-                 action_gain: float = 2.0) -> None:
+                 action_gain: float = 2.0, layout: tuple[str, ...] = REGIONS) -> None:
+        if sorted(layout) != sorted(REGIONS):
+            raise ValueError(f"layout must order {REGIONS} left to right, got {layout}")
+        self.layout = tuple(layout)
+        """The regions' names left to right (default `REGIONS`' order)."""
+        self._kinds = np.array([REGIONS.index(name) for name in self.layout])
         self.max_steps = int(max_steps)
         self.speed = float(speed)
         self.frequency = float(frequency)
@@ -78,7 +86,8 @@ class ThreeRegionsEnv(gym.Env):
 
     def episode_diagnostics(self) -> dict[str, float]:
         """``env/noise_share`` and ``env/coverage_rest`` of the episode so far (module docstring)."""
-        rest = self._visited[:REST_COLUMNS]
+        centres = (np.arange(COVERAGE_CELLS) + 0.5) * 2.0 / COVERAGE_CELLS - 1.0
+        rest = self._visited[self.region_at(centres) != REGIONS.index("noise")]
         return {
             "env/noise_share": self._noise_steps / max(1, self._steps),
             "env/coverage_rest": float(rest.sum()) / rest.size,
@@ -98,7 +107,11 @@ class ThreeRegionsEnv(gym.Env):
         self._steps = self._noise_steps = 0
         self._visited[:] = False
         self._visit()
-        return self._observation(), {"region": REGIONS[int(region_of(self._position[0]))]}
+        return self._observation(), {"region": REGIONS[int(self.region_at(self._position[0]))]}
+
+    def region_at(self, x: float | np.ndarray) -> np.ndarray:
+        """Index into `REGIONS` of the region at horizontal position ``x`` under this env's ``layout``."""
+        return self._kinds[region_of(x)]
 
     def transitions(self, starts: np.ndarray, screens: np.ndarray, actions: np.ndarray,
                     ) -> tuple[np.ndarray, np.ndarray]:
@@ -108,22 +121,22 @@ class ThreeRegionsEnv(gym.Env):
         move = np.clip(np.asarray(actions, dtype=np.float64).reshape(-1, 2), -1.0, 1.0)
         starts = np.asarray(starts, dtype=np.float64).reshape(-1, 2)
         positions = np.clip(starts + self.speed * move, -1.0, 1.0)
-        regions = region_of(positions[:, 0])
+        regions = self.region_at(positions[:, 0])
         new = np.array(screens, dtype=np.float64).reshape(-1)
         f, k = self.frequency, self.action_gain
-        learnable = regions == 1
+        learnable = regions == REGIONS.index("learnable")
         new[learnable] = (np.sin(f * starts[learnable, 0] + k * move[learnable, 0])
                           * np.cos(f * starts[learnable, 1] - k * move[learnable, 1]))
-        noise = regions == 2
+        noise = regions == REGIONS.index("noise")
         new[noise] = self.np_random.uniform(-1.0, 1.0, size=int(noise.sum()))
         return positions, new
 
     def step(self, action: np.ndarray):
         positions, screens = self.transitions(self._position, np.array([self._screen]), action)
         self._position, self._screen = positions[0], float(screens[0])
-        region = int(region_of(self._position[0]))
+        region = int(self.region_at(self._position[0]))
         self._steps += 1
-        self._noise_steps += int(region == 2)
+        self._noise_steps += int(region == REGIONS.index("noise"))
         self._visit()
         truncated = self._steps >= self.max_steps
         info: dict[str, Any] = {"region": REGIONS[region]}

@@ -50,10 +50,14 @@ from core.envs.three_regions import REGIONS, ThreeRegionsEnv, region_of
 PLAN_NOISE = 0.3
 """Std of the Gaussian exploration noise around the plan's action (the learners' order of magnitude)."""
 
-CHECK_ENV = {"frequency": 1.0, "action_gain": 1.0}
+CHECK_ENV = {"frequency": 1.0, "action_gain": 1.0, "layout": ("learnable", "trivial", "noise")}
 """The check's ThreeRegions: a learnable screen sin(x + a_x)·cos(y − a_y) that the local models learn within
 the check's budget (`learnability`: under uniform visits its error ratio to "nothing changes" falls to about
-0.15 by 4 500 steps, where the environment's default, f = k = 2, stayed at 0.3-0.45; docs/dual-system.md)."""
+0.15 by 4 500 steps, where the environment's default, f = k = 2, stayed at 0.3-0.45), in the left third, so
+that a goal at the map's centre (where a value-weighted centre of nearly equal values lies) is the trivial
+third, not the learnable one (docs/dual-system.md)."""
+CHECK_KINDS = np.array([REGIONS.index(name) for name in CHECK_ENV["layout"]])
+"""`REGIONS` index of the check's left, middle and right third."""
 
 
 def check_env(steps: int) -> ThreeRegionsEnv:
@@ -66,8 +70,9 @@ def _zero_actor(phi: torch.Tensor) -> torch.Tensor:
 
 
 def _thirds(centres: np.ndarray, unit: float) -> np.ndarray:
-    """The third (`REGIONS` index) each node lies in, from its map coordinates and the map's unit."""
-    return region_of(centres[:, 0] * unit)
+    """The region (`REGIONS` index, the check's layout) each node lies in, from its map coordinates and the
+    map's unit."""
+    return CHECK_KINDS[region_of(centres[:, 0] * unit)]
 
 
 class OracleAimWorld(LocalWorldModels):
@@ -120,7 +125,7 @@ def visits(dual: DualConfig | None, steps: int, seed: int,
         if world is not None:
             world.learn_transition(node, phi, torch.from_numpy(action.astype(np.float32)), 0.0,
                                    torch.from_numpy(nxt.astype(np.float32)))
-        regions[step] = int(region_of(nxt[0]))
+        regions[step] = int(env.region_at(nxt[0]))
         obs = nxt
         if terminated or truncated:
             obs, _ = env.reset()
@@ -184,12 +189,14 @@ def aim_signals(dual: DualConfig, steps: int = 9000, seed: int = 100, reset_ever
 def _test_transitions(env: ThreeRegionsEnv, count: int, seed: int) -> tuple[torch.Tensor, ...]:
     """``count`` transitions from uniform positions, screens and actions: (φ, a, φ′, third of φ′)."""
     rng = np.random.default_rng(seed)
+    env.reset(seed=seed)  # the noise third's screens come from the env's generator
     starts, screens = rng.uniform(-1.0, 1.0, size=(count, 2)), rng.uniform(-1.0, 1.0, size=count)
     actions = rng.uniform(-1.0, 1.0, size=(count, 2))
     positions, new = env.transitions(starts, screens, actions)
     phi = torch.tensor(np.c_[starts, screens], dtype=torch.float32)
     nxt = torch.tensor(np.c_[positions, new], dtype=torch.float32)
-    return phi, torch.tensor(actions, dtype=torch.float32), nxt, torch.from_numpy(region_of(positions[:, 0]))
+    regions = torch.from_numpy(env.region_at(positions[:, 0]))
+    return phi, torch.tensor(actions, dtype=torch.float32), nxt, regions
 
 
 def learnability(dual: DualConfig, steps: int = 6000, seed: int = 100, reset_every: int = 200,

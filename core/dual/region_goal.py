@@ -6,13 +6,17 @@ ensemble disagreement. `RegionGoal` turns those values into one goal in the map'
 φ / s with a normalised map), the centre of the live nodes c_n weighted by their values v_n, and a term the
 plan maximises (Eq. 7's gradient MPC, `core.dual.planning.optimise_plan`):
 
-    ḡ = Σ_n v_n c_n / Σ_n v_n,   g(φ) = −v_max · √(‖u(φ) − ḡ‖² + ε²),   v_max = max_n v_n,
+    w_n = max(v_n − v̄, 0),   ḡ = Σ_n w_n c_n / Σ_n w_n,   g(φ) = −w_max · √(‖u(φ) − ḡ‖² + ε²),
+
+with v̄ the mean value over the live regions and w_max = max_n w_n: only the regions that stand out pull
+(the contrast: with the raw values as weights, nearly equal values put the goal at the map's centre whatever
+lies there — on the controlled check that was the learnable third by geometry, docs/dual-system.md)
 
 (with ``moved`` = P, the orthogonal projection onto the latent directions the actions move where the plan
 starts, the distance is ‖P(u − ḡ)‖ and the pull acts only along those; `LocalWorldModels.moved_directions`),
-so a plan is pulled toward where the values lie from anywhere on the map (the pull has unit length in u,
-scaled by the largest value: it fades as every region's value goes to 0, and the extrinsic return takes
-over), and ε (1e-3, map units) keeps it smooth at the goal. No value above 0: no aim (g = 0).
+so a plan is pulled toward where the values stand out from anywhere on the map (the pull has unit length in
+u, scaled by the largest contrast: it fades as the values even out or go to 0, and the extrinsic return takes
+over), and ε (1e-3, map units) keeps it smooth at the goal. No value above the mean: no aim (g = 0).
 
 Why a goal and not a field over the regions: a softmax field g(φ) = Σ_n softmax(−‖u − c_n‖²/2σ²)_n v_n (the
 first design) is flat deep inside a region, so it pulls only within about e_max of a boundary, and its
@@ -38,13 +42,16 @@ class RegionGoal:
         """P ``[d, d]``: the orthogonal projection onto the directions actions move the latent (None: all)."""
         self.centres = np.asarray(centres, dtype=np.float64)
         self.values = np.clip(np.asarray(values, dtype=np.float64).reshape(-1), 0.0, None)
+        """v_n, each region's value (clipped at 0)."""
         if self.centres.shape[0] != self.values.shape[0]:
             raise ValueError("one value per centre")
+        contrast = np.clip(self.values - self.values.mean(), 0.0, None) if self.values.size else self.values
+        """w_n = max(v_n − v̄, 0)."""
         self.unit = 1.0 if unit is None else float(unit)
-        total = float(self.values.sum())
-        self.weight = float(self.values.max()) if total > 0.0 else 0.0
-        """v_max: the pull's length in u (0: no aim)."""
-        self.goal = self.values @ self.centres / total if total > 0.0 else None
+        total = float(contrast.sum())
+        self.weight = float(contrast.max()) if total > 0.0 else 0.0
+        """w_max: the pull's length in u (0: no aim)."""
+        self.goal = contrast @ self.centres / total if total > 0.0 else None
         """ḡ in map coordinates (None: no aim)."""
 
     def __call__(self, latents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -192,11 +192,14 @@ def test_hand_written_gradient_equals_autograd_for_a_delta_model_in_normalised_u
 def test_region_goal_is_the_value_weighted_centre_and_its_pull_is_exact() -> None:
     from core.dual.region_goal import RegionGoal
 
-    centres = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0]])
-    goal = RegionGoal(centres, np.array([0.0, 1.0, 0.5]), unit=2.0)
-    np.testing.assert_allclose(goal.goal, [4.0 / 3.0, 2.0 / 3.0])  # (1·(2, 0) + 0.5·(0, 2)) / 1.5
-    far, _ = goal(np.array([[4.0 / 3.0 + 6.0, 2.0 / 3.0]]) * 2.0)  # u = 6 map units beyond the goal
-    assert far[0] == pytest.approx(-6.0, rel=1e-6)  # − v_max · distance, v_max = 1
+    centres = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0], [2.0, 2.0]])
+    goal = RegionGoal(centres, np.array([0.0, 1.0, 0.6, 0.2]), unit=2.0)
+    # contrast w = max(v − v̄, 0) with v̄ = 0.45: (0, 0.55, 0.15, 0)
+    np.testing.assert_allclose(goal.goal, [1.1 / 0.7, 0.3 / 0.7])  # (0.55·(2, 0) + 0.15·(0, 2)) / 0.7
+    far, _ = goal(np.array([[1.1 / 0.7 + 6.0, 0.3 / 0.7]]) * 2.0)  # u = 6 map units beyond the goal
+    assert far[0] == pytest.approx(-0.55 * 6.0, rel=1e-6)  # − w_max · distance, w_max = 0.55
+    flat, flat_grad = RegionGoal(centres, np.full(4, 0.3))(centres)  # nothing stands out: no aim
+    assert not flat.any() and not flat_grad.any()
     latents = np.array([[1.0, 0.4], [0.3, 1.5], [2.2, -0.7]])
     _, grad = goal(latents)
     eps = 1e-6
@@ -207,12 +210,12 @@ def test_region_goal_is_the_value_weighted_centre_and_its_pull_is_exact() -> Non
             down[row, dim] -= eps
             numeric = (goal(up)[0][row] - goal(down)[0][row]) / (2 * eps)
             assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
-    none, none_grad = RegionGoal(centres, np.zeros(3))(latents)  # no value anywhere: no aim
+    none, none_grad = RegionGoal(centres, np.zeros(4))(latents)  # no value anywhere: no aim
     assert not none.any() and not none_grad.any()
 
 
 def test_a_goal_restricted_to_the_moved_directions_ignores_the_others_and_keeps_an_exact_gradient() -> None:
-    """With P, the pull is −v_max · ‖P(u − ḡ)‖: a latent that differs from the goal only along a direction
+    """With P, the pull is −w_max · ‖P(u − ḡ)‖: a latent that differs from the goal only along a direction
     outside P's span is at the goal, and the gradient (checked by finite differences) lies in P's span."""
     from core.dual.region_goal import RegionGoal
 
@@ -220,7 +223,7 @@ def test_a_goal_restricted_to_the_moved_directions_ignores_the_others_and_keeps_
     moved = np.diag([1.0, 1.0, 0.0])  # actions move the first two directions only
     goal = RegionGoal(centres, np.array([0.0, 1.0]), moved=moved)
     value, grad = goal(np.array([[2.0, 0.0, -5.0], [0.5, 1.0, 3.0]]))
-    assert value[0] == pytest.approx(-1e-3)  # only ε away: the third direction does not count
+    assert value[0] == pytest.approx(-0.5e-3)  # only ε away (w_max = 0.5): the third direction does not count
     assert grad[1, 2] == 0.0 and grad[1, 0] > 0.0  # pulled toward x = 2, not along the third direction
     latents = np.array([[0.5, 1.0, 3.0], [1.2, -0.4, 0.2]])
     _, grad = goal(latents)

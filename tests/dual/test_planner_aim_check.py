@@ -54,5 +54,5 @@ def test_the_checks_learnable_third_is_learnt_in_budget_and_the_noise_third_cann
 
     rows = learnability(load_config("default").dual, steps=3000, seed=100, every=1500, test_size=2000)
     assert [row["step"] for row in rows] == [1500, 3000]
-    assert rows[-1]["learnable"] < 0.35, rows
+    assert rows[-1]["learnable"] < 0.4, rows
     assert rows[-1]["noise"] > 0.45, rows

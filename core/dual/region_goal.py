@@ -1,4 +1,4 @@
-"""The aiming planners' goal: the value-weighted centre of the map's regions, and the pull toward it.
+"""The aiming planners' goal: the centre of the map's regions that stand out, and the pull toward it.
 
 The planner's aim (``dual.planner`` = ``progress``, ``novelty`` or ``disagreement``;
 `core.dual.readings.Planner.aim`) is a value per ITM region — its learning progress, prediction error or

@@ -326,7 +326,7 @@ class LocalWorldModels:
 
     def aim_goal(self, aim: str, node: int | None = None) -> RegionGoal | None:
         """The planner's aim (``dual.planner``'s `Planner.aim`) as a goal on the map: one value per live
-        region (`aim_values`) at the region's node in the map's coordinates, the goal their value-weighted
+        region (`aim_values`) at the region's node in the map's coordinates, the goal their contrast-weighted
         centre (`RegionGoal`). With ``node``, the pull counts only the directions the actions move the latent
         there (`moved_directions`). None without a map, before its first state, or no aim."""
         if aim == "none" or self.itm is None or not self.itm.initialised:

@@ -189,7 +189,20 @@ def test_hand_written_gradient_equals_autograd_for_a_delta_model_in_normalised_u
     torch.testing.assert_close(plan - one.plan, grad, atol=1e-5, rtol=1e-4)
 
 
-def test_region_goal_is_the_value_weighted_centre_and_its_pull_is_exact() -> None:
+def _assert_goal_gradient_is_exact(goal, latents: np.ndarray) -> None:
+    """A `RegionGoal`'s gradient w.r.t. each latent against central finite differences."""
+    _, grad = goal(latents)
+    eps = 1e-6
+    for row in range(latents.shape[0]):
+        for dim in range(latents.shape[1]):
+            up, down = latents.copy(), latents.copy()
+            up[row, dim] += eps
+            down[row, dim] -= eps
+            numeric = (goal(up)[0][row] - goal(down)[0][row]) / (2 * eps)
+            assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
+
+
+def test_region_goal_is_the_contrast_weighted_centre_and_its_pull_is_exact() -> None:
     from core.dual.region_goal import RegionGoal
 
     centres = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0], [2.0, 2.0]])
@@ -201,15 +214,7 @@ def test_region_goal_is_the_value_weighted_centre_and_its_pull_is_exact() -> Non
     flat, flat_grad = RegionGoal(centres, np.full(4, 0.3))(centres)  # nothing stands out: no aim
     assert not flat.any() and not flat_grad.any()
     latents = np.array([[1.0, 0.4], [0.3, 1.5], [2.2, -0.7]])
-    _, grad = goal(latents)
-    eps = 1e-6
-    for row in range(latents.shape[0]):
-        for dim in range(2):
-            up, down = latents.copy(), latents.copy()
-            up[row, dim] += eps
-            down[row, dim] -= eps
-            numeric = (goal(up)[0][row] - goal(down)[0][row]) / (2 * eps)
-            assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
+    _assert_goal_gradient_is_exact(goal, latents)
     none, none_grad = RegionGoal(centres, np.zeros(4))(latents)  # no value anywhere: no aim
     assert not none.any() and not none_grad.any()
 
@@ -225,16 +230,7 @@ def test_a_goal_restricted_to_the_moved_directions_ignores_the_others_and_keeps_
     value, grad = goal(np.array([[2.0, 0.0, -5.0], [0.5, 1.0, 3.0]]))
     assert value[0] == pytest.approx(-0.5e-3)  # only ε away (w_max = 0.5): the third direction does not count
     assert grad[1, 2] == 0.0 and grad[1, 0] > 0.0  # pulled toward x = 2, not along the third direction
-    latents = np.array([[0.5, 1.0, 3.0], [1.2, -0.4, 0.2]])
-    _, grad = goal(latents)
-    eps = 1e-6
-    for row in range(2):
-        for dim in range(3):
-            up, down = latents.copy(), latents.copy()
-            up[row, dim] += eps
-            down[row, dim] -= eps
-            numeric = (goal(up)[0][row] - goal(down)[0][row]) / (2 * eps)
-            assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
+    _assert_goal_gradient_is_exact(goal, np.array([[0.5, 1.0, 3.0], [1.2, -0.4, 0.2]]))
 
 
 def test_the_moved_directions_are_those_the_actions_move_whatever_else_changes() -> None:

@@ -36,7 +36,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 
 import numpy as np
 import torch
@@ -145,6 +145,27 @@ def _shares(visited: tuple[np.ndarray, np.ndarray]) -> dict[str, float]:
     }
 
 
+def _uniform_visits(worlds: list[LocalWorldModels], steps: int, seed: int, reset_every: int,
+                    every: int) -> Iterator[int]:
+    """Feed each world the same uniform-random-action transitions of the check's environment, restarted at a
+    uniform position every ``reset_every`` steps; yield the step number every ``every`` steps."""
+    env = check_env(steps)
+    rng = np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    for step in range(1, steps + 1):
+        phi = torch.from_numpy(obs.astype(np.float32))
+        action = rng.uniform(-1.0, 1.0, size=2).astype(np.float32)
+        nxt, _, _, _, _ = env.step(action)
+        for world in worlds:
+            node = world.observe_state(phi)
+            world.learn_transition(node, phi, torch.from_numpy(action), 0.0, torch.from_numpy(nxt))
+        obs = nxt
+        if step % reset_every == 0:
+            obs, _ = env.reset()
+        if step % every == 0:
+            yield step
+
+
 AIMS = ("progress", "novelty", "disagreement")
 """The aiming planners' readings (`core.dual.readings.Planner.aim`)."""
 
@@ -154,27 +175,13 @@ def aim_signals(dual: DualConfig, steps: int = 9000, seed: int = 100, reset_ever
     """Each aim's mean value over the live nodes of each third under uniform visits (module docstring): one
     row per (report step, aim) with ``step``, ``aim`` and the ``trivial``/``learnable``/``noise`` means (NaN
     where a third has no node yet)."""
-    env = check_env(steps)
-    rng = np.random.default_rng(seed)
-    obs, _ = env.reset(seed=seed)
     worlds = {}
     for aim in AIMS:
         config = dataclasses.replace(dual, planner=aim)
         worlds[aim] = LocalWorldModels(config, 3, 2, generator=torch.Generator().manual_seed(seed),
                                        readings=resolve(config))
     rows: list[dict[str, float | int | str]] = []
-    for step in range(1, steps + 1):
-        phi = torch.from_numpy(obs.astype(np.float32))
-        action = rng.uniform(-1.0, 1.0, size=2).astype(np.float32)
-        nxt, _, _, _, _ = env.step(action)
-        for world in worlds.values():
-            node = world.observe_state(phi)
-            world.learn_transition(node, phi, torch.from_numpy(action), 0.0, torch.from_numpy(nxt))
-        obs = nxt
-        if step % reset_every == 0:
-            obs, _ = env.reset()
-        if step % every:
-            continue
+    for step in _uniform_visits(list(worlds.values()), steps, seed, reset_every, every):
         for aim, world in worlds.items():
             goal = world.aim_goal(aim)
             values = np.zeros(0) if goal is None else goal.values
@@ -209,25 +216,12 @@ def learnability(dual: DualConfig, steps: int = 6000, seed: int = 100, reset_eve
     below about 0.5 (a model of the noise's mean). The trivial third is left out: its screen keeps whatever
     value the point carried in, so uniform test screens there lie off what its models saw, and "nothing
     changes" is exact."""
-    env = check_env(steps)
-    rng = np.random.default_rng(seed)
-    obs, _ = env.reset(seed=seed)
     world = LocalWorldModels(dual, 3, 2, generator=torch.Generator().manual_seed(seed),
                              readings=resolve(dual))
     phi, actions, nxt, third = _test_transitions(check_env(1), test_size, seed)
     no_change = ((nxt - phi) ** 2).sum(dim=1)
     rows: list[dict[str, float | int]] = []
-    for step in range(1, steps + 1):
-        state = torch.from_numpy(obs.astype(np.float32))
-        action = rng.uniform(-1.0, 1.0, size=2).astype(np.float32)
-        obs_next, _, _, _, _ = env.step(action)
-        node = world.observe_state(state)
-        world.learn_transition(node, state, torch.from_numpy(action), 0.0, torch.from_numpy(obs_next))
-        obs = obs_next
-        if step % reset_every == 0:
-            obs, _ = env.reset()
-        if step % every:
-            continue
+    for step in _uniform_visits([world], steps, seed, reset_every, every):
         with torch.no_grad():
             nodes = torch.from_numpy(np.asarray(world.nearest_many(phi), dtype=np.int64))
             errors = ((world.bank.predict(nodes, phi, actions).next_latent - nxt) ** 2).sum(dim=1)

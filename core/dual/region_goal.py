@@ -8,15 +8,15 @@ plan maximises (Eq. 7's gradient MPC, `core.dual.planning.optimise_plan`):
 
     w_n = max(v_n − v̄, 0),   ḡ = Σ_n w_n c_n / Σ_n w_n,   g(φ) = −w_max · √(‖u(φ) − ḡ‖² + ε²),
 
-with v̄ the mean value over the live regions and w_max = max_n w_n: only the regions that stand out pull
-(the contrast: with the raw values as weights, nearly equal values put the goal at the map's centre whatever
-lies there — on the controlled check that was the learnable third by geometry, docs/dual-system.md)
+with v̄ the mean value over the live regions and w_max = max_n w_n. Only the regions that stand out pull:
+with the raw values as weights, nearly equal values put the goal at the map's centre whatever lies there (on
+the controlled check that was the learnable third, by geometry; docs/dual-system.md). A plan is pulled toward
+where the values stand out from anywhere on the map; the pull has unit length in u, scaled by the largest
+contrast, so it fades as the values even out or go to 0 and the extrinsic return takes over; ε (1e-3, map
+units) keeps it smooth at the goal. No value above the mean: no aim (g = 0).
 
-(with ``moved`` = P, the orthogonal projection onto the latent directions the actions move where the plan
-starts, the distance is ‖P(u − ḡ)‖ and the pull acts only along those; `LocalWorldModels.moved_directions`),
-so a plan is pulled toward where the values stand out from anywhere on the map (the pull has unit length in
-u, scaled by the largest contrast: it fades as the values even out or go to 0, and the extrinsic return takes
-over), and ε (1e-3, map units) keeps it smooth at the goal. No value above the mean: no aim (g = 0).
+With ``moved`` = P, the orthogonal projection onto the latent directions the actions move where the plan
+starts (`LocalWorldModels.moved_directions`), the distance is ‖P(u − ḡ)‖ and the pull acts only along those.
 
 Why a goal and not a field over the regions: a softmax field g(φ) = Σ_n softmax(−‖u − c_n‖²/2σ²)_n v_n (the
 first design) is flat deep inside a region, so it pulls only within about e_max of a boundary, and its

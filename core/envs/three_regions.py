@@ -46,8 +46,11 @@ REGIONS = ("trivial", "learnable", "noise")
 COVERAGE_CELLS = 15
 """Cells per axis of the grid ``env/coverage_rest`` counts (cell side 2/15 ≈ 2.7 steps at speed 0.05)."""
 
-REST_COLUMNS = int(np.sum((np.arange(COVERAGE_CELLS) + 0.5) * 2.0 / COVERAGE_CELLS - 1.0 < 1.0 / 3.0))
-"""Grid columns whose centre lies outside the noise region (x < 1/3): 10 of 15."""
+COLUMN_CENTRES = (np.arange(COVERAGE_CELLS) + 0.5) * 2.0 / COVERAGE_CELLS - 1.0
+"""Horizontal position of each grid column's centre."""
+
+REST_COLUMNS = int(np.sum(COLUMN_CENTRES < 1.0 / 3.0))
+"""Grid columns whose centre lies outside the noise region under the default layout (x < 1/3): 10 of 15."""
 
 
 def region_of(x: float | np.ndarray) -> np.ndarray:
@@ -68,6 +71,8 @@ class ThreeRegionsEnv(gym.Env):
         self.layout = tuple(layout)
         """The regions' names left to right (default `REGIONS`' order)."""
         self._kinds = np.array([REGIONS.index(name) for name in self.layout])
+        self._rest_columns = self.region_at(COLUMN_CENTRES) != REGIONS.index("noise")
+        """The grid columns outside the noise region (`episode_diagnostics`)."""
         self.max_steps = int(max_steps)
         self.speed = float(speed)
         self.frequency = float(frequency)
@@ -86,8 +91,7 @@ class ThreeRegionsEnv(gym.Env):
 
     def episode_diagnostics(self) -> dict[str, float]:
         """``env/noise_share`` and ``env/coverage_rest`` of the episode so far (module docstring)."""
-        centres = (np.arange(COVERAGE_CELLS) + 0.5) * 2.0 / COVERAGE_CELLS - 1.0
-        rest = self._visited[self.region_at(centres) != REGIONS.index("noise")]
+        rest = self._visited[self._rest_columns]
         return {
             "env/noise_share": self._noise_steps / max(1, self._steps),
             "env/coverage_rest": float(rest.sum()) / rest.size,

@@ -6,8 +6,8 @@ At each step, with φ_t and its best-matching node n:
   model-based: the adaptive rollout of Alg. 1 (continue while the node of the current latent is reliable)
   sets the horizon H, the rollout's actor actions are the initial plan,
   K gradient steps on L_plan (Eq. 6-7, `core.dual.planning.optimise_plan`; with an aiming planner, minus
-  c · the aim's pull at the predicted latents, `LocalWorldModels.aim_goal`, counted along the directions the
-  actions move at node n) give â^(K), whose first action is returned;
+  c · the aim's pull, `LocalWorldModels.aim_goal`, at the latents node n's action map predicts) give
+  â^(K), whose first action is returned;
 - otherwise → model-free: μ(φ_t).
 
 Exploration noise is the caller's job (Alg. 2 line 20), as is storing the rollout's imagined

@@ -183,7 +183,8 @@ def optimise_plan(
     aim_scale: float = 0.0,
 ) -> PlanResult:
     """Eq. 7: K steps on L_plan from the rollout's actions, as ``planner`` reads them (module docstring);
-    with ``aim``, L_plan − ``aim_scale`` · Σ_h g(φ̂_{h+1}) (`RegionGoal`: the planner's aim)."""
+    with ``aim``, L_plan − ``aim_scale`` · Σ_h g(φ̃_{h+1}) (`RegionGoal.plan_term`: the planner's aim, its
+    latents predicted by the start node's action map)."""
     if rollout.depth == 0:
         raise ValueError("optimise_plan needs a rollout of depth >= 1 (the meta-controller chose model-free)")
     objective, step = OBJECTIVES[planner.objective], STEPS[planner.optimiser]
@@ -228,7 +229,8 @@ class _PlanModel:
         self, phi: np.ndarray, plan: np.ndarray, objective: ObjectiveFn, r_star: float,
         aim: RegionGoal | None = None, aim_scale: float = 0.0,
     ) -> tuple[float, np.ndarray]:
-        """L_plan (minus ``aim_scale`` · Σ_h g(φ̂_{h+1}) with an ``aim``) and its gradient w.r.t. the plan."""
+        """L_plan (minus ``aim_scale`` · the aim's pull, `RegionGoal.plan_term`, with an ``aim``) and its
+        gradient w.r.t. the plan."""
         horizon = plan.shape[0]
         model, d = self.model, self.latent_dim
         passes = []
@@ -240,16 +242,9 @@ class _PlanModel:
             rewards[h] = out.reward
             current = out.latent
         loss, d_rewards = objective(rewards, r_star)
-        d_latents = None
-        if aim is not None:
-            g, grad = aim(np.stack([out.latent for out in passes]))
-            loss -= aim_scale * float(g.sum())
-            d_latents = -aim_scale * grad  # dL/dφ̂_{h+1} of the aim term, row h
         grad = np.empty_like(plan)
         d_next = np.zeros(d)  # dL/dφ̂_{h+1}, flowing back from later steps
         for h in reversed(range(horizon)):
-            if d_latents is not None:
-                d_next = d_next + d_latents[h]
             out, g_output, g_reward = passes[h], d_next, d_rewards[h]
             if model.released:  # σ′ and tanh′, in this loop's own order of products (float64 plans unchanged)
                 g_output = d_next * (out.output * (1.0 - out.output))
@@ -259,4 +254,8 @@ class _PlanModel:
             grad[h] = d_x[d:]
             through_model = d_x[:d] / model.scale  # the model reads (φ̂_h − μ) / s
             d_next = through_model + d_next if model.delta else through_model  # delta: identity path too
+        if aim is not None:
+            pull, d_pull = aim.plan_term(phi, plan)
+            loss -= aim_scale * pull
+            grad -= aim_scale * d_pull
         return float(loss), grad

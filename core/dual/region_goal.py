@@ -15,8 +15,14 @@ where the values stand out from anywhere on the map; the pull has unit length in
 contrast, so it fades as the values even out or go to 0 and the extrinsic return takes over; ε (1e-3, map
 units) keeps it smooth at the goal. No value above the mean: no aim (g = 0).
 
-With ``moved`` = P, the orthogonal projection onto the latent directions the actions move where the plan
-starts (`LocalWorldModels.moved_directions`), the distance is ‖P(u − ḡ)‖ and the pull acts only along those.
+How actions move the latent toward the goal is the start node's action map B (`LocalWorldModels.action_map`:
+a least-squares fit of Δφ on the action over the node's stored transitions, kept along the directions that
+persist from step to step and that the actions move significantly). The pull is summed over the plan's latents
+predicted by B, φ̃_{h+1} = φ_t + Σ_{i≤h} B â_i, not by the local models (`plan_term`): on the controlled check
+a local model's ∂φ̂/∂a along a direction that moves little (a point's position, 0.05 per unit action) beside
+one that moves much (a screen) had the wrong sign in nodes with few or noisy transitions, and the pull toward
+the goal's screen value, which no plan can keep, outweighed the pull toward its position
+(docs/dual-system.md, item 11). No action map (too few transitions): no pull.
 
 Why a goal and not a field over the regions: a softmax field g(φ) = Σ_n softmax(−‖u − c_n‖²/2σ²)_n v_n (the
 first design) is flat deep inside a region, so it pulls only within about e_max of a boundary, and its
@@ -37,9 +43,9 @@ class RegionGoal:
     """g(φ) and ∂g/∂φ from node positions ``centres [N, d]`` (map coordinates) and ``values [N]``."""
 
     def __init__(self, centres: np.ndarray, values: np.ndarray, unit: float | None = None,
-                 moved: np.ndarray | None = None) -> None:
-        self.moved = None if moved is None else np.asarray(moved, dtype=np.float64)
-        """P ``[d, d]``: the orthogonal projection onto the directions actions move the latent (None: all)."""
+                 action_map: np.ndarray | None = None) -> None:
+        self.action_map = None if action_map is None else np.asarray(action_map, dtype=np.float64)
+        """B ``[d, action]``: how an action moves the latent where the plan starts (None: no pull)."""
         self.centres = np.asarray(centres, dtype=np.float64)
         self.values = np.clip(np.asarray(values, dtype=np.float64).reshape(-1), 0.0, None)
         """v_n, each region's value (clipped at 0)."""
@@ -60,7 +66,17 @@ class RegionGoal:
         if self.goal is None:
             return np.zeros(u.shape[0]), np.zeros_like(u)
         diff = u - self.goal
-        if self.moved is not None:
-            diff = diff @ self.moved  # P is symmetric: ‖P(u − ḡ)‖ and its gradient P(u − ḡ)/‖·‖
         distance = np.sqrt((diff * diff).sum(axis=1) + SMOOTHING**2)
         return -self.weight * distance, -self.weight * diff / distance[:, None] / self.unit
+
+    def plan_term(self, phi: np.ndarray, plan: np.ndarray) -> tuple[float, np.ndarray]:
+        """Σ_h g(φ̃_{h+1}) over the plan ``[H, action]`` from ``phi`` ``[d]``, the latents predicted by the
+        action map, φ̃_{h+1} = φ + Σ_{i≤h} B â_i, and its gradient w.r.t. the plan,
+        ∂/∂â_i = Bᵀ Σ_{h≥i} ∇g(φ̃_{h+1}) (0 and zeros without an action map or an aim)."""
+        if self.action_map is None or self.goal is None:
+            return 0.0, np.zeros_like(plan)
+        start = np.asarray(phi, dtype=np.float64).reshape(1, -1)
+        latents = start + np.cumsum(plan @ self.action_map.T, axis=0)
+        values, grads = self(latents)
+        later = np.cumsum(grads[::-1], axis=0)[::-1]  # row i: Σ_{h≥i} ∇g(φ̃_{h+1})
+        return float(values.sum()), later @ self.action_map

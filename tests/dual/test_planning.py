@@ -219,23 +219,39 @@ def test_region_goal_is_the_contrast_weighted_centre_and_its_pull_is_exact() -> 
     assert not none.any() and not none_grad.any()
 
 
-def test_a_goal_restricted_to_the_moved_directions_ignores_the_others_and_keeps_an_exact_gradient() -> None:
-    """With P, the pull is −w_max · ‖P(u − ḡ)‖: a latent that differs from the goal only along a direction
-    outside P's span is at the goal, and the gradient (checked by finite differences) lies in P's span."""
+def test_a_plans_pull_is_predicted_by_the_action_map_with_an_exact_gradient() -> None:
+    """`RegionGoal.plan_term`: the pull summed over φ̃_{h+1} = φ + Σ_{i≤h} B â_i, its gradient w.r.t. the plan
+    against finite differences; a plan along B toward the goal scores higher; no action map: no pull."""
     from core.dual.region_goal import RegionGoal
 
     centres = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 1.0]])
-    moved = np.diag([1.0, 1.0, 0.0])  # actions move the first two directions only
-    goal = RegionGoal(centres, np.array([0.0, 1.0]), moved=moved)
-    value, grad = goal(np.array([[2.0, 0.0, -5.0], [0.5, 1.0, 3.0]]))
-    assert value[0] == pytest.approx(-0.5e-3)  # only ε away (w_max = 0.5): the third direction does not count
-    assert grad[1, 2] == 0.0 and grad[1, 0] > 0.0  # pulled toward x = 2, not along the third direction
-    _assert_goal_gradient_is_exact(goal, np.array([[0.5, 1.0, 3.0], [1.2, -0.4, 0.2]]))
+    action_map = np.array([[0.5, 0.0], [0.0, 0.5], [0.0, 0.0]])  # actions move the first two directions
+    goal = RegionGoal(centres, np.array([0.0, 1.0]), action_map=action_map)
+    phi = np.array([0.0, 0.0, -3.0])
+    toward, away = np.tile([1.0, 0.0], (3, 1)), np.tile([-1.0, 0.0], (3, 1))
+    # toward: φ̃ = (0.5, 0, −3), (1, 0, −3), (1.5, 0, −3): distances to ḡ = (2, 0, 1) are √(1.5² + 16) …
+    expected = -0.5 * sum(np.sqrt((2.0 - x) ** 2 + 16.0 + 1e-6) for x in (0.5, 1.0, 1.5))
+    assert goal.plan_term(phi, toward)[0] == pytest.approx(expected)
+    assert goal.plan_term(phi, toward)[0] > goal.plan_term(phi, away)[0]
+    plan = np.array([[0.3, -0.2], [0.9, 0.4], [-0.5, 0.1]])
+    _, grad = goal.plan_term(phi, plan)
+    eps = 1e-6
+    for h in range(plan.shape[0]):
+        for k in range(plan.shape[1]):
+            up, down = plan.copy(), plan.copy()
+            up[h, k] += eps
+            down[h, k] -= eps
+            numeric = (goal.plan_term(phi, up)[0] - goal.plan_term(phi, down)[0]) / (2 * eps)
+            assert grad[h, k] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
+    unmapped = RegionGoal(centres, np.array([0.0, 1.0]))
+    value, unmapped_grad = unmapped.plan_term(phi, plan)
+    assert value == 0.0 and not unmapped_grad.any()
 
 
-def test_the_moved_directions_are_those_the_actions_move_whatever_else_changes() -> None:
-    """`LocalWorldModels.moved_directions`: from a node's stored transitions where actions move the first two
-    latent directions and the third jumps now and then at random (a screen), P spans the first two."""
+def _world_with_transitions(screen: str, steps: int = 200):
+    """A world of one node fed ``steps`` transitions: actions move the first two latent directions by
+    0.05·a; the third is a screen that ``screen`` = ``jumps`` (now and then at random), ``shows`` (a new
+    value each step set by the action, as the check's learnable third) or ``keeps`` (unchanged)."""
     from core.config import load_config
     from core.dual.readings import resolve
     from core.dual.world_models import LocalWorldModels
@@ -245,20 +261,33 @@ def test_the_moved_directions_are_those_the_actions_move_whatever_else_changes()
     rng = np.random.default_rng(0)
     phi = torch.zeros(3)
     node = world.observe_state(phi)
-    assert world.moved_directions(node) is None  # nothing stored yet
-    for step in range(200):
+    assert world.action_map(node) is None  # nothing stored yet
+    for step in range(steps):
         action = rng.uniform(-1.0, 1.0, size=2)
-        jump = rng.uniform(-1.0, 1.0) if step % 10 == 0 else 0.0
-        nxt = phi + torch.tensor([0.05 * action[0], 0.05 * action[1], jump], dtype=torch.float32)
-        world.learn_transition(node, phi, torch.tensor(action, dtype=torch.float32), 0.0, nxt)
-    moved = world.moved_directions(node)
-    assert moved is not None
-    np.testing.assert_allclose(moved, np.diag([1.0, 1.0, 0.0]), atol=0.05)
+        start = torch.tensor([rng.uniform(-0.01, 0.01), rng.uniform(-0.01, 0.01), rng.uniform(-1.0, 1.0)])
+        start = start.to(torch.float32)
+        screen_value = {"jumps": float(start[2]) + (rng.uniform(-1.0, 1.0) if step % 10 == 0 else 0.0),
+                        "shows": float(np.sin(2.0 * action[0])), "keeps": float(start[2])}[screen]
+        nxt = torch.tensor([start[0] + 0.05 * action[0], start[1] + 0.05 * action[1], screen_value],
+                           dtype=torch.float32)
+        world.learn_transition(node, start, torch.tensor(action, dtype=torch.float32), 0.0, nxt)
+    return world, node
+
+
+@pytest.mark.parametrize("screen", ["jumps", "shows", "keeps"])
+def test_the_action_map_keeps_the_directions_actions_move_and_the_latent_carries(screen: str) -> None:
+    """`LocalWorldModels.action_map`: actions move a position (carried from step to step) and, with
+    ``shows``, a screen whose next value the action sets whatever it showed before (moved, not carried);
+    B is the position's 0.05·I and nothing along the screen, however the screen changes."""
+    world, node = _world_with_transitions(screen)
+    action_map = world.action_map(node)
+    assert action_map is not None
+    np.testing.assert_allclose(action_map, [[0.05, 0.0], [0.0, 0.05], [0.0, 0.0]], atol=5e-3)
 
 
 def test_an_aimed_plan_gradient_is_exact_and_steps_toward_the_aim() -> None:
-    """The aim term's gradient, back-propagated through the models by hand, against finite differences; with
-    no reward to follow, the plan moves its predicted latents toward the goal."""
+    """The plan's gradient, the return's back-propagated through the models by hand plus the aim's through the
+    action map, against finite differences; with no reward to follow, the plan moves toward the goal."""
     from core.dual.planning import OBJECTIVES, _PlanModel
     from core.dual.region_goal import RegionGoal
 
@@ -266,7 +295,8 @@ def test_an_aimed_plan_gradient_is_exact_and_steps_toward_the_aim() -> None:
     model = _PlanModel(bank, nodes)
     start = phi.double().numpy()
     actions = plan.double().numpy()
-    field = RegionGoal(np.array([[0.0, 0.0, 0.0, 0.0], [1.0, 1.0, 1.0, 1.0]]), np.array([0.0, 1.0]))
+    field = RegionGoal(np.array([[0.0, 0.0, 0.0, 0.0], [1.0, 1.0, 1.0, 1.0]]), np.array([0.0, 1.0]),
+                       action_map=np.array([[0.3], [-0.2], [0.1], [0.4]]))
     _, grad = model.loss_and_grad(start, actions, OBJECTIVES["return"], 1.0, field, 0.7)
     eps = 1e-6
     for h in range(actions.shape[0]):

@@ -13,9 +13,12 @@ uncertainty rather than progress.
 The controlled problem is `core.envs.three_regions.ThreeRegionsEnv` (a trivial, a learnable and a noise
 third of the square), with no extrinsic reward. The dual system is the agents' own: φ = the observation (the
 encoder is the identity), `LocalWorldModels` learns from every real transition, `MetaController` decides
-(model-based when the region is trusted: Alg. 1's rollout of a zero actor, then K gradient steps on the
-reading's objective), and the executed action is the plan's first action plus N(0, 0.3²) noise, clipped; when
-the region is not trusted the action is uniform random (the random walk's). The baseline is that random walk.
+(model-based when the region is trusted: Alg. 1's rollout of a random actor, uniform actions as the random
+walk's, then K gradient steps on the reading's objective), and the executed action is the plan's first
+action, clipped; when the region is not trusted the action is uniform random. The baseline is that random
+walk: without an aim a plan is its actions unchanged, so a planner differs from the walk by its aim alone
+(with a zero actor and N(0, 0.3²) noise, the first design, a planner without an aim stood nearly still and
+the walk outran it; docs/dual-system.md, item 11).
 
 Figures, averaged over seeds: each planner's share of steps in the learnable region over the first and the
 second half of the run, its share in the noise over the whole run, and the random walk's.
@@ -47,9 +50,6 @@ from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
 from core.envs.three_regions import REGIONS, ThreeRegionsEnv, region_of
 
-PLAN_NOISE = 0.3
-"""Std of the Gaussian exploration noise around the plan's action (the learners' order of magnitude)."""
-
 CHECK_ENV = {"frequency": 1.0, "action_gain": 1.0, "layout": ("learnable", "trivial", "noise")}
 """The check's ThreeRegions: a learnable screen sin(x + a_x)·cos(y − a_y) that the local models learn within
 the check's budget (`learnability`: under uniform visits its error ratio to "nothing changes" falls from 0.47
@@ -66,8 +66,12 @@ def check_env(steps: int) -> ThreeRegionsEnv:
     return ThreeRegionsEnv(max_steps=steps, **CHECK_ENV)
 
 
-def _zero_actor(phi: torch.Tensor) -> torch.Tensor:
-    return torch.zeros(phi.reshape(-1, 3).shape[0], 2)
+def _random_actor(rng: np.random.Generator):
+    """The check's actor: a uniform action for each latent (the random walk's), from the run's generator."""
+    def actor(phi: torch.Tensor) -> torch.Tensor:
+        rows = phi.reshape(-1, 3).shape[0]
+        return torch.from_numpy(rng.uniform(-1.0, 1.0, size=(rows, 2)).astype(np.float32))
+    return actor
 
 
 def _thirds(centres: np.ndarray, unit: float) -> np.ndarray:
@@ -113,15 +117,16 @@ def visits(dual: DualConfig | None, steps: int, seed: int,
         meta = MetaController(world, dual)
     regions = np.zeros(steps, dtype=np.int64)
     planned = np.zeros(steps, dtype=bool)
+    actor = _random_actor(rng)
     for step in range(steps):
         phi = torch.from_numpy(obs.astype(np.float32))
         action = rng.uniform(-1.0, 1.0, size=2)
         if world is not None and meta is not None:
             node = world.observe_state(phi)
-            decision = meta.decide(phi, node, _zero_actor)
+            decision = meta.decide(phi, node, actor)
             if decision.model_based:
                 planned[step] = True
-                action = np.clip(decision.action.numpy() + PLAN_NOISE * rng.normal(size=2), -1.0, 1.0)
+                action = decision.action.numpy().astype(np.float64)
         nxt, _, terminated, truncated, _ = env.step(action.astype(np.float32))
         if world is not None:
             world.learn_transition(node, phi, torch.from_numpy(action.astype(np.float32)), 0.0,

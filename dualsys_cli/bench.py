@@ -48,6 +48,19 @@ def bench_modelbank(
     _emit(measure(batch=batch, repeats=repeats), as_json)
 
 
+@app.command("plan")
+def bench_plan(
+    latent_dim: int = typer.Option(32, min=1, help="Latent size (the default profile's is 32)."),
+    action_dim: int = typer.Option(2, min=1, help="Action size."),
+    repeats: int = typer.Option(200, min=1, help="Timed decisions per reading (median reported)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
+) -> None:
+    """Milliseconds per model-based decision with the aiming planner's pull against the same plan without."""
+    from bench.plan_speed import measure
+
+    _emit(measure(latent_dim=latent_dim, action_dim=action_dim, repeats=repeats), as_json)
+
+
 @app.command("train")
 def bench_train(
     algos: str = typer.Option(

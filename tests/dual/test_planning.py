@@ -311,3 +311,13 @@ def test_an_aimed_plan_gradient_is_exact_and_steps_toward_the_aim() -> None:
     aimed = optimise_plan(phi, rollout, bank, PLANNER["progress"], steps=10, lr=0.05, aim=field,
                           aim_scale=1.0)
     assert aimed.final_loss < aimed.initial_loss
+
+
+def test_the_plan_bench_times_both_readings_on_a_node_with_an_action_map() -> None:
+    """`dualsys bench plan`'s contract: both readings timed on the same rollout, the aim's node fitted."""
+    from bench.plan_speed import measure
+
+    result = measure(latent_dim=3, action_dim=2, repeats=2)
+    assert set(result["ms_per_decision"]) == {"no_aim", "aim"}
+    assert result["horizon"] >= 1 and result["stored_transitions"] >= 4 * (2 + 3 + 1)
+    assert result["ratio_aim_to_no_aim"] > 0.0

@@ -168,11 +168,12 @@ class Planner:
     every step (a projection). ``aim``: what the plan seeks beside the predicted reward, c · Σ_h g(φ̃_{h+1})
     with c = ``dual.intrinsic_scale``, g the pull toward the contrast-weighted centre of the regions and φ̃
     the latents the start node's action map predicts (`core.dual.region_goal.RegionGoal.plan_term`), one
-    value per region: none; ``progress`` — the region's γ-Progress
-    (`core.dual.lagged_progress`: a lagged model's error minus the current model's on each fresh transition,
-    in units of the latent's spread); ``novelty`` — the region's model error over its no-change error
-    (prediction-error curiosity: large where the model is wrong, noise included); ``disagreement`` — the
-    variance of an ensemble of the region's models (Plan2Explore, MAX: epistemic uncertainty)."""
+    value per region: none; ``progress`` — the region's learning progress
+    (`core.dual.lagged_progress`: the drop from a lagged model's error to the current model's on the region's
+    held-out transitions, as a share of the lagged error); ``novelty`` — the region's model error over its
+    no-change error (prediction-error curiosity: large where the model is wrong, noise included);
+    ``disagreement`` — the variance of an ensemble of the region's models (Plan2Explore, MAX: epistemic
+    uncertainty)."""
 
     objective: Literal["sum", "per_step", "return"]
     optimiser: Literal["sgd", "normalised"]
@@ -268,7 +269,7 @@ class Readings:
     def needs_heldout(self) -> bool:
         """Whether a reading uses held-out verdicts (reliability, intrinsic progress, imagination gate)."""
         return (self.reliability.held_out or not self.intrinsic.from_lp or self.imagination.gated
-                or self.planner.aim == "novelty")
+                or self.planner.aim in ("novelty", "progress"))
 
 
 def resolve(dual: DualConfig) -> Readings:

@@ -316,6 +316,14 @@ class HeldOutReliability:
         self.ensure_capacity(int(ids.max()) + 1 if ids.size else 0)
         return self.trusted[ids].copy()
 
+    def held(self, node: int) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """``node``'s held-out transitions (the filled part of its ring): φ ``[n, d]``, a ``[n, a]``,
+        r ``[n]``, φ′ ``[n, d]``."""
+        self.ensure_capacity(node + 1)
+        n = int(min(self.written[node], self.size))
+        return (self.latent[node, :n], self.action[node, :n], self.reward[node, :n],
+                self.next_latent[node, :n])
+
     def progress_of(self, nodes: np.ndarray | list[int] | int) -> np.ndarray:
         """Held-out progress per node (paired error decrease since the recent snapshot; 0 while undefined)."""
         ids = np.asarray(nodes, dtype=np.int64).reshape(-1)

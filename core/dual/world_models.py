@@ -149,8 +149,10 @@ class LocalWorldModels:
         )
         if self.heldout is not None:
             self.heldout.reset_nodes(np.arange(capacity))
-        self.lagged_progress = LaggedProgress(self.bank) if read.planner.aim == "progress" else None
-        """γ-Progress per node, what the ``progress`` planner aims at (`core.dual.lagged_progress`)."""
+        self.lagged_progress = (LaggedProgress(self.bank, self.heldout) if read.planner.aim == "progress"
+                                and self.heldout is not None else None)
+        """Fractional held-out progress per node, what the ``progress`` planner aims at
+        (`core.dual.lagged_progress`)."""
         self.disagreement = (EnsembleDisagreement(self.bank, seed=int(self.bank.generator.initial_seed()) + 1)
                              if read.planner.aim == "disagreement" else None)
         """Per-node ensemble disagreement, what the ``disagreement`` planner aims at
@@ -286,7 +288,7 @@ class LocalWorldModels:
         if self.disagreement is not None:
             self.disagreement.record_and_learn(node, phi, action, float(reward_ext), next_phi)
         if self.lagged_progress is not None:
-            self.lagged_progress.record(node, error, phi, action, float(reward_ext), next_phi)
+            self.lagged_progress.record(node)
             if stepped:
                 self.lagged_progress.after_update([node])
         if self.heldout is not None:
@@ -347,8 +349,7 @@ class LocalWorldModels:
         `EnsembleDisagreement.relative` (disagreement) or `HeldOutReliability.relative_error` (novelty)."""
         if aim == "progress":
             assert self.lagged_progress is not None
-            unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
-            return self.lagged_progress.relative(regions, unit)
+            return self.lagged_progress.relative(regions)
         if aim == "disagreement":
             assert self.disagreement is not None
             return self.disagreement.relative(regions, self.unit.scale)

@@ -1,5 +1,5 @@
-"""γ-Progress per region (core/dual/lagged_progress.py): what the progress planner aims at — positive while
-a model improves, about 0 once it has converged and where the outcome is noise."""
+"""Fractional held-out progress per region (core/dual/lagged_progress.py): what the progress planner aims at —
+positive while a model improves, about 0 once it has converged and where the outcome is noise."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ def _progress(world: LocalWorldModels, noise: float, steps: int, seed: int = 0) 
         nxt = phi + 0.3 * action + noise * rng.normal(size=2)
         as_tensor = lambda x: torch.tensor(x, dtype=torch.float32)  # noqa: E731
         world.learn_transition(0, as_tensor(phi), as_tensor(action), 0.0, as_tensor(nxt))
-        out.append(float(world.lagged_progress.relative([0], world.unit.scale)[0]))
+        out.append(float(world.lagged_progress.relative([0])[0]))
     return out
 
 
@@ -52,4 +52,17 @@ def test_progress_survives_a_checkpoint() -> None:
     clone = _world()
     clone.load_state_dict(world.state_dict())
     before, after = world.lagged_progress, clone.lagged_progress
-    np.testing.assert_allclose(after.relative([0], 1.0), before.relative([0], 1.0))
+    np.testing.assert_allclose(after.relative([0]), before.relative([0]))
+
+
+def test_no_progress_before_the_node_holds_enough_held_out_transitions() -> None:
+    """A node is scored on its held-out ring only once the ring holds MIN_HELD transitions (every
+    ``HeldOut.every``-th transition goes there): before that its progress is 0 however fast it learns."""
+    from core.dual.lagged_progress import MIN_HELD
+
+    world = _world()
+    every = world.heldout.every
+    before = _progress(world, noise=0.0, steps=every * MIN_HELD - 1)
+    assert max(before) == 0.0
+    after = _progress(world, noise=0.0, steps=every * 4)
+    assert max(after) > 0.0

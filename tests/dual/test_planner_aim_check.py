@@ -56,3 +56,32 @@ def test_the_checks_learnable_third_is_learnt_in_budget_and_the_noise_third_cann
     assert [row["step"] for row in rows] == [1500, 3000]
     assert rows[-1]["learnable"] < 0.4, rows
     assert rows[-1]["noise"] > 0.45, rows
+
+
+def test_exact_sign_flip_p_counts_every_flip() -> None:
+    import pytest
+
+    from core.dual.checks.planner_aim import exact_sign_flip_p
+
+    assert exact_sign_flip_p([0.3] * 5) == 2 / 32  # only all-plus and all-minus reach |mean| 0.3
+    assert exact_sign_flip_p([1.0, -1.0, 1.0, -1.0]) == 1.0  # observed mean 0: every flip is as extreme
+    assert exact_sign_flip_p([0.5, 0.1, 0.1]) == 2 / 8  # |±0.5 ± 0.1 ± 0.1| reaches 0.7 only unflipped
+    assert exact_sign_flip_p([0.5, 0.1, -0.1]) == 6 / 8  # sums 0.5, 0.7, 0.3, 0.5 and their negatives
+    with pytest.raises(ValueError, match="at most 20"):
+        exact_sign_flip_p([0.1] * 21)
+
+
+def test_machinery_check_reports_shares_and_paired_comparisons_with_the_walk_of_each_seed() -> None:
+    from core.dual.checks.planner_aim import PAIRED, machinery_check
+
+    per_seed: list[dict[str, object]] = []
+    out = machinery_check(load_config("default").dual, steps=120, seeds=2, first_seed=100, per_seed=per_seed)
+    assert len(per_seed) == 3 * 2 and {row["planner"] for row in per_seed} == {
+        "oracle_gated", "oracle_everywhere", "random_walk"}
+    walk = [row for row in per_seed if row["planner"] == "random_walk"]
+    everywhere = [row for row in per_seed if row["planner"] == "oracle_everywhere"]
+    for key in PAIRED:
+        expected = np.mean([a[key] - b[key] for a, b in zip(everywhere, walk, strict=True)])
+        assert abs(out[f"oracle_everywhere_{key}_minus_walk"] - expected) < 1e-3
+        assert 0.0 < out[f"oracle_everywhere_{key}_p"] <= 1.0
+    assert out["oracle_everywhere_planned"] == 1.0 and out["random_walk_planned"] == 0.0

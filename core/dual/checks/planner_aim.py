@@ -20,8 +20,10 @@ walk: without an aim a plan is its actions unchanged, so a planner differs from 
 (with a zero actor and N(0, 0.3²) noise, the first design, a planner without an aim stood nearly still and
 the walk outran it; docs/dual-system.md, item 11).
 
-Figures, averaged over seeds: each planner's share of steps in the learnable region over the first and the
-second half of the run, its share in the noise over the whole run, and the random walk's.
+A run is episodes of `EPISODE` steps, each from a uniform start, the world models persisting. Figures,
+averaged over seeds: each planner's share of steps in the learnable region over the first and the second
+half of the run, its share in the noise over the whole run, and the random walk's; and each planner's mean
+paired difference to the walk of the same seed with its exact sign-flip p.
 
 `aim_signals` checks what the planners aim at before any planner acts: under uniform visits (a random walk
 restarted at a uniform position every ``reset_every`` steps, the same transitions fed to one world per aim),
@@ -61,6 +63,13 @@ CHECK_KINDS = np.array([REGIONS.index(name) for name in CHECK_ENV["layout"]])
 """`REGIONS` index of the check's left, middle and right third."""
 
 
+EPISODE = 500
+"""Steps per episode of the planners' runs (`visits`): each episode starts at a uniform position and the world
+models persist across episodes. One episode per run (until item 13 of docs/dual-system.md) let the random
+walk's share of the learnable third range 0.00-0.73 by seed over 8 000 steps, too wide for ten seeds to tell
+planners apart; at speed 0.05 an aimed plan crosses the square in 40 steps, a walk about 0.65 in 500."""
+
+
 def check_env(steps: int) -> ThreeRegionsEnv:
     """The check's environment (`CHECK_ENV`), one episode of ``steps`` steps."""
     return ThreeRegionsEnv(max_steps=steps, **CHECK_ENV)
@@ -98,12 +107,12 @@ class OracleAimWorld(LocalWorldModels):
         return (_thirds(centres, unit) == REGIONS.index("learnable")).astype(np.float64)
 
 
-def visits(dual: DualConfig | None, steps: int, seed: int,
-           oracle: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+def visits(dual: DualConfig | None, steps: int, seed: int, oracle: str | None = None,
+           episode: int = EPISODE) -> tuple[np.ndarray, np.ndarray]:
     """Region index of every step's new position, and whether the planner chose the step's action: the
     planner of ``dual`` (None: the random walk); with ``oracle`` = ``gated`` or ``everywhere``, aiming at the
-    truth (`OracleAimWorld`)."""
-    env = check_env(steps)
+    truth (`OracleAimWorld`). Episodes of ``episode`` steps, each from a uniform start."""
+    env = check_env(min(steps, episode))
     rng = np.random.default_rng(seed)
     obs, _ = env.reset(seed=seed)
     world = meta = None
@@ -238,41 +247,66 @@ def learnability(dual: DualConfig, steps: int = 6000, seed: int = 100, reset_eve
     return rows
 
 
-def _mean_shares(dual: DualConfig | None, steps: int, seeds: range, oracle: str | None = None,
-                 ) -> dict[str, float]:
-    """`_shares` of `visits` averaged over ``seeds``."""
-    figures = [_shares(visits(dual, steps, seed, oracle)) for seed in seeds]
-    return {key: round(float(np.mean([f[key] for f in figures])), 3) for key in figures[0]}
+PAIRED = ("learnable_share_first_half", "learnable_share_second_half", "noise_share")
+"""The shares each planner is compared on with the random walk of the same seed."""
 
 
-def machinery_check(dual: DualConfig, steps: int = 6000, seeds: int = 10,
-                    first_seed: int = 100) -> dict[str, float]:
+def exact_sign_flip_p(differences: Sequence[float]) -> float:
+    """Two-sided exact p of the mean of paired differences under the null of symmetry about 0: the share of
+    all 2ⁿ sign flips whose |mean| is at least the observed one (n ≤ 20)."""
+    d = np.asarray(differences, dtype=np.float64)
+    if d.size > 20:
+        raise ValueError(f"exact sign flips over {d.size} pairs: at most 20")
+    signs = 1 - 2 * ((np.arange(2**d.size)[:, None] >> np.arange(d.size)) & 1)
+    means = np.abs(signs @ d) / d.size
+    return float((means >= abs(d.mean()) - 1e-12).mean())
+
+
+def _run_planners(runs: Sequence[tuple[str, DualConfig | None, str | None]], steps: int, seeds: Sequence[int],
+                  per_seed: list[dict[str, object]] | None = None) -> dict[str, float]:
+    """Each run's `_shares` averaged over ``seeds`` (``<name>_<share>``), and for each run but the random walk
+    (which must be among them, named ``random_walk``) its mean paired difference to the walk of the same seed
+    on each of `PAIRED` (``…_minus_walk``) with the exact sign-flip p (``…_p``). ``per_seed`` collects one row
+    per run and seed."""
+    figures = {name: [_shares(visits(config, steps, seed, oracle)) for seed in seeds]
+               for name, config, oracle in runs}
+    out: dict[str, float] = {}
+    for name, rows in figures.items():
+        out.update({f"{name}_{key}": round(float(np.mean([row[key] for row in rows])), 3) for key in rows[0]})
+        if per_seed is not None:
+            per_seed.extend({"planner": name, "seed": seed, **{k: round(v, 4) for k, v in row.items()}}
+                            for seed, row in zip(seeds, rows, strict=True))
+    walk = figures["random_walk"]
+    for name, rows in figures.items():
+        if name == "random_walk":
+            continue
+        for key in PAIRED:
+            differences = [row[key] - base[key] for row, base in zip(rows, walk, strict=True)]
+            out[f"{name}_{key}_minus_walk"] = round(float(np.mean(differences)), 3)
+            out[f"{name}_{key}_p"] = round(exact_sign_flip_p(differences), 3)
+    return out
+
+
+def machinery_check(dual: DualConfig, steps: int = 6000, seeds: int = 10, first_seed: int = 100,
+                    per_seed: list[dict[str, object]] | None = None) -> dict[str, float]:
     """The planner with the true aim (`OracleAimWorld`), gated by arbitration and planning everywhere, beside
     the random walk: ``oracle_gated_…``, ``oracle_everywhere_…`` and ``random_walk_…`` shares, with the share
-    of steps the planner chose (``…_planned``)."""
-    out: dict[str, float] = {}
+    of steps the planner chose (``…_planned``) and the paired comparisons with the walk (`_run_planners`)."""
     config = dataclasses.replace(dual, planner="progress")
     runs = (("oracle_gated", config, "gated"), ("oracle_everywhere", config, "everywhere"),
             ("random_walk", None, None))
-    for name, run_config, oracle in runs:
-        shares = _mean_shares(run_config, steps, range(first_seed, first_seed + seeds), oracle)
-        out.update({f"{name}_{key}": value for key, value in shares.items()})
-    return out
+    return _run_planners(runs, steps, range(first_seed, first_seed + seeds), per_seed)
 
 
-def planner_aim_check(dual: DualConfig, steps: int = 12000, seeds: int = 3,
-                      first_seed: int = 100) -> dict[str, float]:
+def planner_aim_check(dual: DualConfig, steps: int = 12000, seeds: int = 3, first_seed: int = 100,
+                      per_seed: list[dict[str, object]] | None = None) -> dict[str, float]:
     """The JSON figures (module docstring): ``progress_…``, ``novelty_…``, ``disagreement_…`` and
-    ``random_walk_…`` shares, over seeds ``first_seed`` … (tuning seeds ≥ 100; the first table in
-    docs/dual-system.md ran seeds 0-9)."""
-    out: dict[str, float] = {}
-    planners = (("progress", "progress"), ("novelty", "novelty"), ("disagreement", "disagreement"),
-                ("random_walk", None))
-    for name, reading in planners:
-        config = None if reading is None else dataclasses.replace(dual, planner=reading)
-        shares = _mean_shares(config, steps, range(first_seed, first_seed + seeds))
-        out.update({f"{name}_{key}": value for key, value in shares.items()})
-    return out
+    ``random_walk_…`` shares and the paired comparisons with the walk (`_run_planners`), over seeds
+    ``first_seed`` … (tuning seeds ≥ 100; the first table in docs/dual-system.md ran seeds 0-9)."""
+    runs = tuple((name, None if reading is None else dataclasses.replace(dual, planner=reading), None)
+                 for name, reading in (("progress", "progress"), ("novelty", "novelty"),
+                                       ("disagreement", "disagreement"), ("random_walk", None)))
+    return _run_planners(runs, steps, range(first_seed, first_seed + seeds), per_seed)
 
 
 def aim_signal_summary(dual: DualConfig, seeds: Sequence[int], steps: int = 9000,
@@ -310,6 +344,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seeds", type=_seed_range, default=_seed_range("100-104"), help="e.g. 100-104")
     parser.add_argument("--steps", type=int, default=None,
                         help="6000 (learnability), 9000 (signals), 8000 (check) or 6000 (machinery)")
+    parser.add_argument("--per-seed", action="store_true",
+                        help="check, machinery: also print one JSON line per planner and seed")
     args = parser.parse_args(argv)
     dual = load_config("default").dual
     torch.set_num_threads(1)
@@ -320,13 +356,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     elif args.what == "signals":
         for row in aim_signal_summary(dual, args.seeds, steps=args.steps or 9000):
             print(json.dumps(row))
-    elif args.what == "machinery":
-        shares = machinery_check(dual, steps=args.steps or 6000, seeds=len(args.seeds),
-                                 first_seed=args.seeds[0])
-        print(json.dumps(shares))
     else:
-        shares = planner_aim_check(dual, steps=args.steps or 8000, seeds=len(args.seeds),
-                                   first_seed=args.seeds[0])
+        per_seed: list[dict[str, object]] = []
+        check = machinery_check if args.what == "machinery" else planner_aim_check
+        shares = check(dual, steps=args.steps or (6000 if args.what == "machinery" else 8000),
+                       seeds=len(args.seeds), first_seed=args.seeds[0], per_seed=per_seed)
+        for row in per_seed if args.per_seed else []:
+            print(json.dumps(row))
         print(json.dumps(shares))
     return 0
 

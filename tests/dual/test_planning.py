@@ -189,17 +189,16 @@ def test_hand_written_gradient_equals_autograd_for_a_delta_model_in_normalised_u
     torch.testing.assert_close(plan - one.plan, grad, atol=1e-5, rtol=1e-4)
 
 
-def _assert_goal_gradient_is_exact(goal, latents: np.ndarray) -> None:
-    """A `RegionGoal`'s gradient w.r.t. each latent against central finite differences."""
-    _, grad = goal(latents)
+def _assert_exact_gradient(value, grad: np.ndarray, x: np.ndarray) -> None:
+    """``grad[row, dim]`` against central finite differences of ``value(x, row)`` (the scalar whose gradient
+    it is: row ``row``'s pull for a goal's per-latent gradient, the plan's total pull for a plan's)."""
     eps = 1e-6
-    for row in range(latents.shape[0]):
-        for dim in range(latents.shape[1]):
-            up, down = latents.copy(), latents.copy()
-            up[row, dim] += eps
-            down[row, dim] -= eps
-            numeric = (goal(up)[0][row] - goal(down)[0][row]) / (2 * eps)
-            assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
+    for row, dim in np.ndindex(*x.shape):
+        up, down = x.copy(), x.copy()
+        up[row, dim] += eps
+        down[row, dim] -= eps
+        numeric = (value(up, row) - value(down, row)) / (2 * eps)
+        assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
 
 
 def test_region_goal_is_the_contrast_weighted_centre_and_its_pull_is_exact() -> None:
@@ -214,7 +213,7 @@ def test_region_goal_is_the_contrast_weighted_centre_and_its_pull_is_exact() -> 
     flat, flat_grad = RegionGoal(centres, np.full(4, 0.3))(centres)  # nothing stands out: no aim
     assert not flat.any() and not flat_grad.any()
     latents = np.array([[1.0, 0.4], [0.3, 1.5], [2.2, -0.7]])
-    _assert_goal_gradient_is_exact(goal, latents)
+    _assert_exact_gradient(lambda x, row: goal(x)[0][row], goal(latents)[1], latents)
     none, none_grad = RegionGoal(centres, np.zeros(4))(latents)  # no value anywhere: no aim
     assert not none.any() and not none_grad.any()
 
@@ -234,15 +233,7 @@ def test_a_plans_pull_is_predicted_by_the_action_map_with_an_exact_gradient() ->
     assert goal.plan_term(phi, toward)[0] == pytest.approx(expected)
     assert goal.plan_term(phi, toward)[0] > goal.plan_term(phi, away)[0]
     plan = np.array([[0.3, -0.2], [0.9, 0.4], [-0.5, 0.1]])
-    _, grad = goal.plan_term(phi, plan)
-    eps = 1e-6
-    for h in range(plan.shape[0]):
-        for k in range(plan.shape[1]):
-            up, down = plan.copy(), plan.copy()
-            up[h, k] += eps
-            down[h, k] -= eps
-            numeric = (goal.plan_term(phi, up)[0] - goal.plan_term(phi, down)[0]) / (2 * eps)
-            assert grad[h, k] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
+    _assert_exact_gradient(lambda x, _: goal.plan_term(phi, x)[0], goal.plan_term(phi, plan)[1], plan)
     unmapped = RegionGoal(centres, np.array([0.0, 1.0]))
     value, unmapped_grad = unmapped.plan_term(phi, plan)
     assert value == 0.0 and not unmapped_grad.any()

@@ -146,6 +146,21 @@ def cpu_flags(cpuinfo: str | None = None) -> set[str]:
     return set()
 
 
+def cpu_vendor() -> str:
+    """``intel``, ``amd`` or ``other``: the host's CPU vendor (``/proc/cpuinfo``'s vendor_id). A pinned
+    instruction set makes runs identical across machines of one vendor, not across vendors: on the same
+    AVX2 pin an Intel Xeon and an AMD EPYC round a 256-wide matrix product differently (measured: a pinned
+    SAC run's first critic value differs in the 8th digit), so bit-for-bit references are kept per vendor."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, sep, value = line.partition(":")
+            if sep and key.strip() == "vendor_id":
+                return {"GenuineIntel": "intel", "AuthenticAMD": "amd"}.get(value.strip(), "other")
+    except OSError:
+        pass
+    return "other"
+
+
 def cpu_model() -> str:
     """The host CPU's model name (``/proc/cpuinfo``), or the platform's processor string."""
     try:

@@ -57,13 +57,15 @@ def _makefile_demo() -> list[str]:
 
 
 def _quoted_check() -> tuple[list[str], dict[str, str]]:
-    """The check's command and the figures the README says it prints (as written: their digits)."""
+    """The check's command and the figures the README says it prints on this host's CPU vendor (as written:
+    their digits; `cpu_isa.cpu_vendor`: the pin fixes the instruction set, not the vendor's kernels)."""
     section = _section()
     command = _bash_blocks(section)[1]
     assert len(command) == 1, command
     tail = section[section.index(command[0]) :]
-    printed = re.search(r"```json\n(.*?)```", tail, flags=re.S)
-    assert printed, "the README quotes the check's printed JSON line in a ```json block"
+    vendor = {"amd": "AMD EPYC", "intel": "Intel Xeon"}.get(cpu_isa.cpu_vendor(), "AMD EPYC")
+    printed = re.search(rf"on an {vendor}:\n\n```json\n(.*?)```", tail, flags=re.S)
+    assert printed, f"the README quotes the check's printed JSON line on an {vendor} in a ```json block"
     figures = dict(re.findall(r'"(\w+)": (-?[0-9.]+)', printed.group(1)))
     return shlex.split(command[0]), figures
 

@@ -75,7 +75,8 @@ class LaggedProgress:
         if ids.size == 0:
             return
         self._grow()
-        self.lagged[torch.from_numpy(ids)] = self.bank.theta[torch.from_numpy(ids)]
+        index = torch.from_numpy(ids)
+        self.lagged[index] = self.bank.theta[index]
         self.drop[ids] = 0.0
         self.lagged_error[ids] = 0.0
 

@@ -132,45 +132,38 @@ def _pin(cpu_isa: str) -> IsaPin:
     return PINS[cpu_isa]
 
 
-def cpu_flags(cpuinfo: str | None = None) -> set[str]:
-    """The host's CPU flags (``/proc/cpuinfo``'s first ``flags`` line; empty where there is none)."""
+def _cpuinfo_field(key: str, cpuinfo: str | None = None) -> str | None:
+    """The value of ``/proc/cpuinfo``'s first ``key`` line (or of ``cpuinfo``'s); None where there is none."""
     if cpuinfo is None:
         try:
             cpuinfo = Path("/proc/cpuinfo").read_text()
         except OSError:
-            return set()
+            return None
     for line in cpuinfo.splitlines():
-        key, sep, value = line.partition(":")
-        if sep and key.strip() == "flags":
-            return set(value.split())
-    return set()
+        name, sep, value = line.partition(":")
+        if sep and name.strip() == key:
+            return value.strip()
+    return None
+
+
+def cpu_flags(cpuinfo: str | None = None) -> set[str]:
+    """The host's CPU flags (``/proc/cpuinfo``'s first ``flags`` line; empty where there is none)."""
+    return set((_cpuinfo_field("flags", cpuinfo) or "").split())
 
 
 def cpu_vendor() -> str:
     """``intel``, ``amd`` or ``other``: the host's CPU vendor (``/proc/cpuinfo``'s vendor_id). A pinned
-    instruction set makes runs identical across machines of one vendor, not across vendors: on the same
-    AVX2 pin an Intel Xeon and an AMD EPYC round a 256-wide matrix product differently (measured: a pinned
-    SAC run's first critic value differs in the 8th digit), so bit-for-bit references are kept per vendor."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            key, sep, value = line.partition(":")
-            if sep and key.strip() == "vendor_id":
-                return {"GenuineIntel": "intel", "AuthenticAMD": "amd"}.get(value.strip(), "other")
-    except OSError:
-        pass
-    return "other"
+    instruction set makes runs identical across machines of one vendor, not across vendors: under the same
+    AVX2 pin a SAC run made on an AMD EPYC and rerun on an Intel Xeon differed from its first critic value on
+    (8th digit; which library rounds differently is not yet found), so bit-for-bit references are kept per
+    vendor."""
+    vendor = _cpuinfo_field("vendor_id")
+    return {"GenuineIntel": "intel", "AuthenticAMD": "amd"}.get(vendor or "", "other")
 
 
 def cpu_model() -> str:
     """The host CPU's model name (``/proc/cpuinfo``), or the platform's processor string."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            key, sep, value = line.partition(":")
-            if sep and key.strip() == "model name":
-                return value.strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
+    return _cpuinfo_field("model name") or platform.processor() or platform.machine()
 
 
 def missing_flags(

@@ -88,7 +88,7 @@ def measure(latent_dim: int = 32, action_dim: int = 2, repeats: int = 200, memor
     ms = {name: round(1000.0 * statistics.median(times), 4) for name, times in samples.items()}
     return {"ms_per_decision": ms, "ratio_aim_to_no_aim": round(ms["aim"] / ms["no_aim"], 3),
             "latent_dim": latent_dim, "action_dim": action_dim, "horizon": rollout.depth,
-            "plan_steps": config.plan_steps, "stored_transitions": int(world._memory.get(node)[0].shape[0]),
+            "plan_steps": config.plan_steps, "stored_transitions": world.stored_transitions(node),
             "repeats": repeats}
 
 

@@ -132,6 +132,12 @@ class InstantaneousTopologicalMap:
         """Ids of the nodes connected to ``node``."""
         return np.flatnonzero(self._adjacency[node])
 
+    def adjacency(self, node_ids: np.ndarray) -> np.ndarray:
+        """The edges among ``node_ids`` as a boolean matrix ``[len, len]`` (row i, column j: ids i and j are
+        connected), a copy."""
+        ids = np.asarray(node_ids)
+        return self._adjacency[np.ix_(ids, ids)].copy()
+
     def edges(self) -> set[tuple[int, int]]:
         """All edges as ``(low id, high id)`` pairs."""
         rows, cols = np.nonzero(np.triu(self._adjacency, k=1))

@@ -165,15 +165,15 @@ class Planner:
     ``objective``: (R* − Σ r̂)² (Eq. 6), ½ Σ (1 − r̂)² (released code), or −Σ r̂, the predicted return
     maximised (with an aim). ``optimiser``, Eq. 7's step: the plain gradient, or the gradient scaled to length
     α (a step in action units). ``clip``: only the executed action to [−1, 1], or every plan action after
-    every step (a projection). ``aim``: what the plan seeks beside the predicted reward, c · Σ_h g(φ̃_{h+1})
-    with c = ``dual.intrinsic_scale``, g the pull toward the contrast-weighted centre of the regions and φ̃
-    the latents the start node's action map predicts (`core.dual.region_goal.RegionGoal.plan_term`), one
-    value per region: none; ``progress`` — the region's learning progress
-    (`core.dual.lagged_progress`: the drop from a lagged model's error to the current model's on the region's
-    held-out transitions, as a share of the lagged error); ``novelty`` — the region's model error over its
-    no-change error (prediction-error curiosity: large where the model is wrong, noise included);
-    ``disagreement`` — the variance of an ensemble of the region's models (Plan2Explore, MAX: epistemic
-    uncertainty)."""
+    every step (a projection). ``aim``: what the plan seeks beside the predicted reward, c · Σ_h
+    g(φ̃_{h+1}) with c = ``dual.intrinsic_scale``, g the pull toward where the regions' values, averaged
+    over map neighbours, peak, and φ̃ the latents the start node's action map predicts
+    (`core.dual.region_goal.RegionGoal.plan_term`), one value per region: none; ``progress`` — the
+    region's learning progress (`core.dual.lagged_progress`: the drop from a lagged model's error to the
+    current model's on the region's held-out transitions, as a share of the lagged error); ``novelty`` —
+    the region's model error over its no-change error (prediction-error curiosity: large where the model
+    is wrong, noise included); ``disagreement`` — the variance of an ensemble of the region's models
+    (Plan2Explore, MAX: epistemic uncertainty)."""
 
     objective: Literal["sum", "per_step", "return"]
     optimiser: Literal["sgd", "normalised"]

@@ -1,28 +1,35 @@
-"""The aiming planners' goal: the centre of the map's regions that stand out, and the pull toward it.
+"""The aiming planners' goal: where the map's regions stand out, on average over map neighbours, and the pull
+toward it.
 
 The planner's aim (``dual.planner`` = ``progress``, ``novelty`` or ``disagreement``;
 `core.dual.readings.Planner.aim`) is a value per ITM region — its learning progress, prediction error or
 ensemble disagreement. `RegionGoal` turns those values into one goal in the map's coordinates u(φ) (φ, or
-φ / s with a normalised map), the centre of the live nodes c_n weighted by their values v_n, and a term the
-plan maximises (Eq. 7's gradient MPC, `core.dual.planning.optimise_plan`):
+φ / s with a normalised map) and a term the plan maximises (Eq. 7's gradient MPC,
+`core.dual.planning.optimise_plan`). Each value is first averaged with its map neighbours' (A the live nodes'
+adjacency, the ITM's edges), the goal is the node (or the mean of the nodes) where that average peaks, and the
+pull's length is the peak's contrast:
 
-    w_n = max(v_n − v̄, 0),   ḡ = Σ_n w_n c_n / Σ_n w_n,   g(φ) = −w_max · √(‖u(φ) − ḡ‖² + ε²),
+    s_n = (v_n + Σ_m A_nm v_m) / (1 + Σ_m A_nm),   ḡ = c_{argmax s},   w = max_n s_n − s̄,
+    g(φ) = −w · √(‖u(φ) − ḡ‖² + ε²),
 
-with v̄ the mean value over the live regions and w_max = max_n w_n. Only the regions that stand out pull:
-with the raw values as weights, nearly equal values put the goal at the map's centre whatever lies there (on
-the controlled check that was the learnable third, by geometry; docs/dual-system.md). A plan is pulled toward
-where the values stand out from anywhere on the map; the pull has unit length in u, scaled by the largest
-contrast, so it fades as the values even out or go to 0 and the extrinsic return takes over; ε (1e-3, map
-units) keeps it smooth at the goal. No value above the mean: no aim (g = 0).
+with v_n clipped at 0 and s̄ the mean over the live nodes. Why a smoothed peak (docs/dual-system.md, items
+14-16): the contrast-weighted centre of every node above the mean (the previous goal) fell between the
+learnable third and the single nodes of the noise third whose values fluctuate, in the middle third, though
+on the planner's own visits the learnable third's mean value ranked highest in 16 of 20 snapshots; the single
+highest node chased those fluctuations. A region that is being learnt is many neighbouring nodes with high
+values; noise is single nodes that stand out now and then, and a neighbour average keeps the first and damps
+the second. The pull has unit length in u, scaled by the contrast, so it fades as the values even out or go
+to 0 and the extrinsic return takes over; ε (1e-3, map units) keeps it smooth at the goal. No contrast (all
+smoothed values equal): no aim.
 
-How actions move the latent toward the goal is the start node's action map B (`LocalWorldModels.action_map`:
-a least-squares fit of Δφ on the action over the node's stored transitions, kept along the directions that
-persist from step to step and that the actions move significantly). The pull is summed over the plan's latents
-predicted by B, φ̃_{h+1} = φ_t + Σ_{i≤h} B â_i, not by the local models (`plan_term`): on the controlled check
-a local model's ∂φ̂/∂a along a direction that moves little (a point's position, 0.05 per unit action) beside
-one that moves much (a screen) had the wrong sign in nodes with few or noisy transitions, and the pull toward
-the goal's screen value, which no plan can keep, outweighed the pull toward its position
-(docs/dual-system.md, item 11). No action map (too few transitions): no pull.
+How actions move the latent toward the goal is the start node's `ActionMap` (`core.dual.action_map`: a
+least-squares fit of Δφ on the action, the state and a constant over the node's stored transitions, kept along
+the directions that persist from step to step). The pull is summed over the plan's latents that map predicts,
+φ̃_{h+1} = M φ̃_h + Q B â_h + Q (c − D φ̄), not over the local models' (`plan_term`): on the controlled check a
+local model's ∂φ̂/∂a along a direction that moves little (a point's position, 0.05 per unit action) beside one
+that moves much (a screen) had the wrong sign in nodes with few or noisy transitions, and the pull toward the
+goal's screen value, which no plan can keep, outweighed the pull toward its position (docs/dual-system.md,
+item 11). No action map (too few transitions): no pull.
 
 Why a goal and not a field over the regions: a softmax field g(φ) = Σ_n softmax(−‖u − c_n‖²/2σ²)_n v_n (the
 first design) is flat deep inside a region, so it pulls only within about e_max of a boundary, and its
@@ -35,6 +42,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from core.dual.action_map import ActionMap
+
 SMOOTHING = 1e-3
 """ε of the pull's norm, in map units."""
 
@@ -43,21 +52,26 @@ class RegionGoal:
     """g(φ) and ∂g/∂φ from node positions ``centres [N, d]`` (map coordinates) and ``values [N]``."""
 
     def __init__(self, centres: np.ndarray, values: np.ndarray, unit: float | None = None,
-                 action_map: np.ndarray | None = None) -> None:
-        self.action_map = None if action_map is None else np.asarray(action_map, dtype=np.float64)
-        """B ``[d, action]``: how an action moves the latent where the plan starts (None: no pull)."""
+                 action_map: ActionMap | None = None, adjacency: np.ndarray | None = None) -> None:
+        self.action_map = action_map
+        """The start node's linear dynamics, through which a plan's latents are predicted (None: no pull)."""
         self.centres = np.asarray(centres, dtype=np.float64)
         self.values = np.clip(np.asarray(values, dtype=np.float64).reshape(-1), 0.0, None)
         """v_n, each region's value (clipped at 0)."""
-        if self.centres.shape[0] != self.values.shape[0]:
+        count = self.values.shape[0]
+        if self.centres.shape[0] != count:
             raise ValueError("one value per centre")
-        contrast = np.clip(self.values - self.values.mean(), 0.0, None) if self.values.size else self.values
-        """w_n = max(v_n − v̄, 0)."""
+        links = np.zeros((count, count)) if adjacency is None else np.asarray(adjacency, dtype=np.float64)
+        if links.shape != (count, count):
+            raise ValueError(f"adjacency must be [{count}, {count}], got {links.shape}")
+        self.smoothed = (self.values + links @ self.values) / (1.0 + links.sum(axis=1))
+        """s_n, each value averaged with its map neighbours'."""
         self.unit = 1.0 if unit is None else float(unit)
-        total = float(contrast.sum())
-        self.weight = float(contrast.max()) if total > 0.0 else 0.0
-        """w_max: the pull's length in u (0: no aim)."""
-        self.goal = contrast @ self.centres / total if total > 0.0 else None
+        contrast = float(self.smoothed.max() - self.smoothed.mean()) if count else 0.0
+        self.weight = contrast if contrast > 0.0 else 0.0
+        """w: the pull's length in u (0: no aim)."""
+        peak = self.smoothed == self.smoothed.max() if count else np.zeros(0, dtype=bool)
+        self.goal = self.centres[peak].mean(axis=0) if self.weight > 0.0 else None
         """ḡ in map coordinates (None: no aim)."""
 
     def __call__(self, latents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -70,13 +84,11 @@ class RegionGoal:
         return -self.weight * distance, -self.weight * diff / distance[:, None] / self.unit
 
     def plan_term(self, phi: np.ndarray, plan: np.ndarray) -> tuple[float, np.ndarray]:
-        """Σ_h g(φ̃_{h+1}) over the plan ``[H, action]`` from ``phi`` ``[d]``, the latents predicted by the
-        action map, φ̃_{h+1} = φ + Σ_{i≤h} B â_i, and its gradient w.r.t. the plan,
-        ∂/∂â_i = Bᵀ Σ_{h≥i} ∇g(φ̃_{h+1}) (0 and zeros without an action map or an aim)."""
+        """Σ_h g(φ̃_{h+1}) over the plan ``[H, action]`` from ``phi`` ``[d]``, φ̃ the latents the action map
+        predicts (`ActionMap.rollout`), and its gradient w.r.t. the plan (`ActionMap.pull_back`); 0 and zeros
+        without an action map or an aim."""
         if self.action_map is None or self.goal is None:
             return 0.0, np.zeros_like(plan)
-        start = np.asarray(phi, dtype=np.float64).reshape(1, -1)
-        latents = start + np.cumsum(plan @ self.action_map.T, axis=0)
+        latents = self.action_map.rollout(phi, np.asarray(plan, dtype=np.float64))
         values, grads = self(latents)
-        later = np.cumsum(grads[::-1], axis=0)[::-1]  # row i: Σ_{h≥i} ∇g(φ̃_{h+1})
-        return float(values.sum()), later @ self.action_map
+        return float(values.sum()), self.action_map.pull_back(grads)

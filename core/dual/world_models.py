@@ -43,6 +43,7 @@ import numpy as np
 import torch
 
 from core.config import DualConfig
+from core.dual.action_map import ActionMap, fit_action_map
 from core.dual.capacity import grown_capacity
 from core.dual.disagreement import EnsembleDisagreement
 from core.dual.itm import InstantaneousTopologicalMap, ItmEvents
@@ -74,14 +75,6 @@ class TransitionFeedback:
     """e^prd of the node's model on the transition, before its update (Eq. 8)."""
     intrinsic_reward: float
     """r_int after recording the error (``dual.intrinsic``)."""
-
-
-MOVED_T = 3.0
-"""Least |t| of a coefficient of Δφ on the action that counts as moved (`action_map`)."""
-
-PERSISTENT = 0.5
-"""Least eigenvalue of the symmetric part of ∂φ′/∂φ along which a latent direction counts as carried from one
-step to the next (`action_map`): 1 for a position, 0 for a screen that shows a new value every step."""
 
 
 class LocalWorldModels:
@@ -332,17 +325,18 @@ class LocalWorldModels:
 
     def aim_goal(self, aim: str, node: int | None = None) -> RegionGoal | None:
         """The planner's aim (``dual.planner``'s `Planner.aim`) as a goal on the map: one value per live
-        region (`aim_values`) at the region's node in the map's coordinates, the goal their contrast-weighted
-        centre (`RegionGoal`). With ``node``, the plan's start node, the goal carries that node's action map
-        (`action_map`), through which a plan's pull is predicted. None without a map, before its first state,
-        or no aim."""
+        region (`aim_values`) at the region's node in the map's coordinates, the goal where those values,
+        averaged over the map's neighbours, peak (`RegionGoal`). With ``node``, the plan's start node, the
+        goal carries that node's action map (`action_map`), through which a plan's pull is predicted. None
+        without a map, before its first state, or no aim."""
         if aim == "none" or self.itm is None or not self.itm.initialised:
             return None
         regions = self.itm.alive_ids()
         map_unit = None if self.scale is None else float(self.scale.scale)
         action_map = None if node is None else self.action_map(node)
         values = self.aim_values(aim, regions)
-        return RegionGoal(self.itm.weights(regions), values, unit=map_unit, action_map=action_map)
+        return RegionGoal(self.itm.weights(regions), values, unit=map_unit, action_map=action_map,
+                          adjacency=self.itm.adjacency(regions))
 
     def aim_values(self, aim: str, regions: np.ndarray) -> np.ndarray:
         """Each region's value for an aim: `LaggedProgress.relative` (progress),
@@ -356,35 +350,19 @@ class LocalWorldModels:
         assert self.heldout is not None
         return self.heldout.relative_error(regions)
 
-    def action_map(self, node: int) -> np.ndarray | None:
-        """B ``[d, action]``: how an action moves the latent at ``node``, from its stored real transitions —
-        the least-squares fit Δφ ≈ B·a + D·(φ − φ̄) + c, its coefficients kept where they are significant
-        (|t| ≥ `MOVED_T`: a direction that changes at random gets no spurious tilt, nor one along which the
-        node's states hardly vary a spurious D), and B restricted to the directions the latent carries from
-        step to step (the eigenvectors of the symmetric part of I + D with eigenvalue ≥ `PERSISTENT`: a
-        position, not a screen whose next value does not depend on its last), so that a goal pulls only along
-        directions a plan can move and keep. None with fewer than 4·(|a| + d + 1)
-        stored transitions or nothing moved."""
+    def stored_transitions(self, node: int) -> int:
+        """How many of the node's real transitions are stored for its Eq. 5 minibatches and its action map (0
+        without a memory)."""
+        return 0 if self._memory is None else self._memory.count(node)
+
+    def action_map(self, node: int) -> ActionMap | None:
+        """The linear latent dynamics at ``node`` (`core.dual.action_map.fit_action_map` over its stored real
+        transitions), through which an aiming plan predicts its latents; None with too few transitions or
+        nothing moved."""
         if self._memory is None:
             return None
         latent, action, _, next_latent, _ = self._memory.get(node)
-        (count, dim), actions = latent.shape, action.shape[1]
-        if count < 4 * (actions + dim + 1):
-            return None
-        states = latent.double().numpy()
-        inputs = np.c_[action.double().numpy(), states - states.mean(axis=0), np.ones(count)]
-        change = next_latent.double().numpy() - states
-        coef = np.linalg.lstsq(inputs, change, rcond=None)[0]  # [action + d + 1, d]
-        residual = ((change - inputs @ coef) ** 2).sum(axis=0) / (count - inputs.shape[1])  # σ² per direction
-        inverse = np.diag(np.linalg.pinv(inputs.T @ inputs))  # (XᵀX)⁻¹_jj per input
-        error = np.sqrt(np.maximum(residual[None, :] * inverse[:, None], 1e-30))
-        significant = np.where(np.abs(coef) >= MOVED_T * error, coef, 0.0)
-        moved = significant[:actions].T  # [d, action]
-        carried = np.eye(dim) + significant[actions:actions + dim].T  # ∂φ′/∂φ
-        eigenvalues, eigenvectors = np.linalg.eigh(0.5 * (carried + carried.T))
-        kept = eigenvectors[:, eigenvalues >= PERSISTENT]
-        action_map = kept @ (kept.T @ moved)
-        return action_map if action_map.any() else None
+        return fit_action_map(latent, action, next_latent)
 
     def alive_regions(self) -> np.ndarray:
         """The live regions' ids (node 0 alone without a map, or before the map's first state)."""

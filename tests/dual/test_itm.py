@@ -71,6 +71,11 @@ def test_edge_adaptation_connects_and_prunes_and_removes_orphans() -> None:
     assert itm.edges() == {(0, 4), (2, 3), (2, 4)}
     assert not itm.is_alive(1) and itm.num_nodes == 4
     assert 1 not in set(itm.nearest(np.array([[6.0, 0.0], [5.0, 0.1]])).tolist())
+    live = itm.alive_ids()  # the live nodes' adjacency (the aim's neighbour average) is edges() as a matrix
+    links = itm.adjacency(live)
+    pairs = zip(*np.nonzero(np.triu(links)), strict=True)
+    assert {(int(live[i]), int(live[j])) for i, j in pairs} == itm.edges()
+    assert (links == links.T).all() and not links.diagonal().any()
 
 
 def test_freed_slot_is_reused_by_next_node() -> None:

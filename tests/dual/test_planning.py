@@ -201,31 +201,47 @@ def _assert_exact_gradient(value, grad: np.ndarray, x: np.ndarray) -> None:
         assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
 
 
-def test_region_goal_is_the_contrast_weighted_centre_and_its_pull_is_exact() -> None:
+def test_region_goal_is_where_the_neighbour_averaged_values_peak_and_its_pull_is_exact() -> None:
+    """`RegionGoal`: s = each value averaged with its map neighbours', the goal the node where s peaks, the
+    pull's length the peak's contrast max s − mean s; a single spike among low neighbours loses to a plateau
+    of high ones (the noise third's fluctuating nodes against a region being learnt); exact gradient."""
     from core.dual.region_goal import RegionGoal
 
-    centres = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 2.0], [2.0, 2.0]])
-    goal = RegionGoal(centres, np.array([0.0, 1.0, 0.6, 0.2]), unit=2.0)
-    # contrast w = max(v − v̄, 0) with v̄ = 0.45: (0, 0.55, 0.15, 0)
-    np.testing.assert_allclose(goal.goal, [1.1 / 0.7, 0.3 / 0.7])  # (0.55·(2, 0) + 0.15·(0, 2)) / 0.7
-    far, _ = goal(np.array([[1.1 / 0.7 + 6.0, 0.3 / 0.7]]) * 2.0)  # u = 6 map units beyond the goal
-    assert far[0] == pytest.approx(-0.55 * 6.0, rel=1e-6)  # − w_max · distance, w_max = 0.55
-    flat, flat_grad = RegionGoal(centres, np.full(4, 0.3))(centres)  # nothing stands out: no aim
+    # a chain 0-1-2 (a plateau being learnt) and a chain 3-4 (a spike at 4 beside a learnt node 3)
+    centres = np.array([[0.0, 0.0], [2.0, 0.0], [4.0, 0.0], [0.0, 6.0], [0.0, 8.0]])
+    values = np.array([0.6, 0.7, 0.6, 0.0, 1.0])
+    adjacency = np.zeros((5, 5), dtype=bool)
+    for a, b in ((0, 1), (1, 2), (3, 4)):
+        adjacency[a, b] = adjacency[b, a] = True
+    goal = RegionGoal(centres, values, unit=2.0, adjacency=adjacency)
+    np.testing.assert_allclose(goal.smoothed, [0.65, 1.9 / 3, 0.65, 0.5, 0.5])
+    np.testing.assert_allclose(goal.goal, [2.0, 0.0])  # the mean of the tied peaks 0 and 2
+    assert goal.weight == pytest.approx(0.65 - np.mean([0.65, 1.9 / 3, 0.65, 0.5, 0.5]))
+    spike = RegionGoal(centres, values, unit=2.0)  # without the map's edges the spike is the peak
+    np.testing.assert_allclose(spike.goal, [0.0, 8.0])
+    assert spike.weight == pytest.approx(1.0 - values.mean())
+    far, _ = goal(np.array([[2.0 + 6.0, 0.0]]) * 2.0)  # u = 6 map units beyond the goal
+    assert far[0] == pytest.approx(-goal.weight * 6.0, rel=1e-6)  # − w · distance
+    flat, flat_grad = RegionGoal(centres, np.full(5, 0.3), adjacency=adjacency)(centres)  # nothing stands out
     assert not flat.any() and not flat_grad.any()
     latents = np.array([[1.0, 0.4], [0.3, 1.5], [2.2, -0.7]])
     _assert_exact_gradient(lambda x, row: goal(x)[0][row], goal(latents)[1], latents)
-    none, none_grad = RegionGoal(centres, np.zeros(4))(latents)  # no value anywhere: no aim
+    none, none_grad = RegionGoal(centres, np.zeros(5), adjacency=adjacency)(latents)  # no value: no aim
     assert not none.any() and not none_grad.any()
+    with pytest.raises(ValueError, match="adjacency"):
+        RegionGoal(centres, values, adjacency=adjacency[:4, :4])
 
 
 def test_a_plans_pull_is_predicted_by_the_action_map_with_an_exact_gradient() -> None:
-    """`RegionGoal.plan_term`: the pull summed over φ̃_{h+1} = φ + Σ_{i≤h} B â_i, its gradient w.r.t. the plan
-    against finite differences; a plan along B toward the goal scores higher; no action map: no pull."""
+    """`RegionGoal.plan_term`: the pull summed over φ̃_{h+1} = φ + Σ_{i≤h} B â_i (no coupling, no drift), its
+    gradient w.r.t. the plan against finite differences; a plan along B toward the goal scores higher; no
+    action map: no pull."""
+    from core.dual.action_map import ActionMap
     from core.dual.region_goal import RegionGoal
 
     centres = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 1.0]])
-    action_map = np.array([[0.5, 0.0], [0.0, 0.5], [0.0, 0.0]])  # actions move the first two directions
-    goal = RegionGoal(centres, np.array([0.0, 1.0]), action_map=action_map)
+    moves = np.array([[0.5, 0.0], [0.0, 0.5], [0.0, 0.0]])  # actions move the first two directions
+    goal = RegionGoal(centres, np.array([0.0, 1.0]), action_map=ActionMap(moves, np.eye(3), np.zeros(3)))
     phi = np.array([0.0, 0.0, -3.0])
     toward, away = np.tile([1.0, 0.0], (3, 1)), np.tile([-1.0, 0.0], (3, 1))
     # toward: φ̃ = (0.5, 0, −3), (1, 0, −3), (1.5, 0, −3): distances to ḡ = (2, 0, 1) are √(1.5² + 16) …
@@ -273,12 +289,48 @@ def test_the_action_map_keeps_the_directions_actions_move_and_the_latent_carries
     world, node = _world_with_transitions(screen)
     action_map = world.action_map(node)
     assert action_map is not None
-    np.testing.assert_allclose(action_map, [[0.05, 0.0], [0.0, 0.05], [0.0, 0.0]], atol=5e-3)
+    np.testing.assert_allclose(action_map.moves, [[0.05, 0.0], [0.0, 0.05], [0.0, 0.0]], atol=5e-3)
+
+
+def test_the_action_map_carries_a_coupling_so_a_goal_reached_through_it_pulls() -> None:
+    """`fit_action_map` on MountainCar-like dynamics (the action moves a velocity, the velocity the position,
+    v′ = v + 0.1·a, x′ = x + v′): M = I + QD holds the coupling, and a plan that pushes toward a goal at a
+    position scores above standing still — under B alone (no coupling) it scored below, since pushing only
+    moves the velocity away from the goal's. The rollout is the fitted dynamics; the gradient is exact."""
+    from core.dual.action_map import ActionMap, fit_action_map
+    from core.dual.region_goal import RegionGoal
+
+    rng = np.random.default_rng(0)
+    states = np.c_[rng.uniform(-0.5, 0.5, 200), rng.uniform(-0.1, 0.1, 200)]
+    actions = rng.uniform(-1.0, 1.0, (200, 1))
+    velocity = states[:, 1] + 0.1 * actions[:, 0]
+    nxt = np.c_[states[:, 0] + velocity, velocity]
+    fitted = fit_action_map(*(torch.tensor(x, dtype=torch.float32) for x in (states, actions, nxt)))
+    assert fitted is not None
+    np.testing.assert_allclose(fitted.moves, [[0.1], [0.1]], atol=1e-5)
+    np.testing.assert_allclose(fitted.carries, [[1.0, 1.0], [0.0, 1.0]], atol=1e-5)
+    np.testing.assert_allclose(fitted.drift, [0.0, 0.0], atol=1e-5)
+    plan, still = np.ones((5, 1)), np.zeros((5, 1))
+    expected, latent = [], np.zeros(2)
+    for _ in range(5):
+        latent = np.array([latent[0] + latent[1] + 0.1, latent[1] + 0.1])
+        expected.append(latent)
+    np.testing.assert_allclose(fitted.rollout(np.zeros(2), plan), expected, atol=1e-5)
+    centres, values = np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([0.0, 1.0])  # the goal: x = 1 at rest
+    coupled = RegionGoal(centres, values, action_map=fitted)
+    assert coupled.plan_term(np.zeros(2), plan)[0] > coupled.plan_term(np.zeros(2), still)[0]
+    moves_only = RegionGoal(centres, values, action_map=ActionMap(fitted.moves * [[0.0], [1.0]], np.eye(2),
+                                                                  np.zeros(2)))
+    assert moves_only.plan_term(np.zeros(2), plan)[0] < moves_only.plan_term(np.zeros(2), still)[0]
+    mixed = rng.uniform(-1.0, 1.0, (5, 1))
+    _assert_exact_gradient(lambda x, _: coupled.plan_term(np.zeros(2), x)[0],
+                           coupled.plan_term(np.zeros(2), mixed)[1], mixed)
 
 
 def test_an_aimed_plan_gradient_is_exact_and_steps_toward_the_aim() -> None:
     """The plan's gradient, the return's back-propagated through the models by hand plus the aim's through the
     action map, against finite differences; with no reward to follow, the plan moves toward the goal."""
+    from core.dual.action_map import ActionMap
     from core.dual.planning import OBJECTIVES, _PlanModel
     from core.dual.region_goal import RegionGoal
 
@@ -286,8 +338,10 @@ def test_an_aimed_plan_gradient_is_exact_and_steps_toward_the_aim() -> None:
     model = _PlanModel(bank, nodes)
     start = phi.double().numpy()
     actions = plan.double().numpy()
+    coupled = ActionMap(moves=np.array([[0.3], [-0.2], [0.1], [0.4]]),
+                        carries=np.eye(4) + 0.1 * np.eye(4, k=1), drift=np.array([0.01, 0.0, -0.02, 0.0]))
     field = RegionGoal(np.array([[0.0, 0.0, 0.0, 0.0], [1.0, 1.0, 1.0, 1.0]]), np.array([0.0, 1.0]),
-                       action_map=np.array([[0.3], [-0.2], [0.1], [0.4]]))
+                       action_map=coupled)
     _, grad = model.loss_and_grad(start, actions, OBJECTIVES["return"], 1.0, field, 0.7)
     eps = 1e-6
     for h in range(actions.shape[0]):

@@ -327,37 +327,6 @@ def test_the_action_map_carries_a_coupling_so_a_goal_reached_through_it_pulls() 
                            coupled.plan_term(np.zeros(2), mixed)[1], mixed)
 
 
-def test_steering_by_the_aim_alone_moves_the_actors_plan_toward_the_goal() -> None:
-    """`steer_plan` (where the models are not trusted): the actor's actions along the action map's latents
-    start the plan, and K normalised steps on −Σ g move the executed action toward the goal, the loss −Σ g
-    falling; a goal along the first direction leaves the second action at the actor's 0; no action map: an
-    error, not a silent model-free step."""
-    import dataclasses
-
-    from core.config import load_config
-    from core.dual.action_map import ActionMap
-    from core.dual.planning import steer_plan
-    from core.dual.readings import resolve
-    from core.dual.region_goal import RegionGoal
-
-    planner = resolve(dataclasses.replace(load_config("default").dual, planner="progress")).planner
-    action_map = ActionMap(moves=0.05 * np.eye(2), carries=np.eye(2), drift=np.zeros(2))
-    goal = RegionGoal(np.array([[0.0, 0.0], [2.0, 0.0]]), np.array([0.0, 1.0]), action_map=action_map)
-    seen: list[torch.Tensor] = []
-
-    def actor(latent: torch.Tensor) -> torch.Tensor:
-        seen.append(latent.clone())
-        return torch.tensor([[-0.2, 0.0]])
-
-    plan = steer_plan(torch.zeros(1, 2), actor, goal, planner, horizon=4, steps=10, lr=0.1)
-    assert plan.plan.shape == (4, 2)
-    torch.testing.assert_close(torch.cat(seen)[:, 0], torch.tensor([0.0, -0.01, -0.02, -0.03]))  # φ̃ = Σ B a
-    assert plan.action[0] > -0.2 and plan.action[1] == pytest.approx(0.0, abs=1e-6)
-    assert plan.final_loss < plan.initial_loss
-    with pytest.raises(ValueError, match="action map"):
-        steer_plan(torch.zeros(1, 2), actor, RegionGoal(goal.centres, goal.values), planner, horizon=4)
-
-
 def test_an_aimed_plan_gradient_is_exact_and_steps_toward_the_aim() -> None:
     """The plan's gradient, the return's back-propagated through the models by hand plus the aim's through the
     action map, against finite differences; with no reward to follow, the plan moves toward the goal."""

@@ -6,21 +6,30 @@ The planner's aim (``dual.planner`` = ``progress``, ``novelty`` or ``disagreemen
 ensemble disagreement. `RegionGoal` turns those values into one goal in the map's coordinates u(φ) (φ, or
 φ / s with a normalised map) and a term the plan maximises (Eq. 7's gradient MPC,
 `core.dual.planning.optimise_plan`). Each value is first averaged with its map neighbours' (A the live nodes'
-adjacency, the ITM's edges), the goal is the node (or the mean of the nodes) where that average peaks, and the
-pull's length is the peak's contrast:
+adjacency, the ITM's edges), the goal lies in the neighbourhood where that average peaks, and the pull's
+length is the peak's contrast:
 
-    s_n = (v_n + Σ_m A_nm v_m) / (1 + Σ_m A_nm),   ḡ = c_{argmax s},   w = max_n s_n − s̄,
+    s_n = (v_n + Σ_m A_nm v_m) / (1 + Σ_m A_nm),   n* = argmax s,
+    ḡ = Σ_{m ∈ N[n*]} v_m c_m / Σ_{m ∈ N[n*]} v_m,   w = max_n s_n − s̄,
     g(φ) = −w · √(‖u(φ) − ḡ‖² + ε²),
 
-with v_n clipped at 0 and s̄ the mean over the live nodes. Why a smoothed peak (docs/dual-system.md, items
-14-16): the contrast-weighted centre of every node above the mean (the previous goal) fell between the
-learnable third and the single nodes of the noise third whose values fluctuate, in the middle third, though
-on the planner's own visits the learnable third's mean value ranked highest in 16 of 20 snapshots; the single
-highest node chased those fluctuations. A region that is being learnt is many neighbouring nodes with high
-values; noise is single nodes that stand out now and then, and a neighbour average keeps the first and damps
-the second. The pull has unit length in u, scaled by the contrast, so it fades as the values even out or go
-to 0 and the extrinsic return takes over; ε (1e-3, map units) keeps it smooth at the goal. No contrast (all
-smoothed values equal): no aim.
+with v_n clipped at 0, s̄ the mean over the live nodes and N[n*] the peak's closed neighbourhood (the peak and
+its map neighbours; the union over tied peaks): the goal is the value-weighted centre of the neighbourhood
+whose average peaks. Why a smoothed peak (docs/dual-system.md, items 14-16): the contrast-weighted centre of
+every node above the mean (the previous goal) fell between the learnable third and the single nodes of the
+noise third whose values fluctuate, in the middle third, though on the planner's own visits the learnable
+third's mean value ranked highest in 16 of 20 snapshots; the single highest node chased those fluctuations. A
+region that is being learnt is many neighbouring nodes with high values; noise is single nodes that stand out
+now and then, and a neighbour average keeps the first and damps the second. Why the neighbourhood's
+value-weighted centre and not the peak node itself: a node's average includes its neighbours, so a node of
+value 0 beside one high node outscores that node when the high node has more neighbours. On the machinery
+check with the true aim (values 1 in the learnable third, 0 elsewhere) the goal then sat for thousands of
+steps at a node of the middle third and then of the noise third, linked by a long ITM edge to the learnable
+third's one node (docs/dual-system.md, item 17); capping each average at the node's own value fixed that but
+lost the centres of plateaus whose own value dips, which the progress planner on its own visits relied on. The
+pull has unit length in u, scaled by the contrast, so it fades as the values even out or go to 0 and the
+extrinsic return takes over; ε (1e-3, map units) keeps it smooth at the goal. No contrast (all smoothed values
+equal): no aim.
 
 How actions move the latent toward the goal is the start node's `ActionMap` (`core.dual.action_map`: a
 least-squares fit of Δφ on the action, the state and a constant over the node's stored transitions, kept along
@@ -70,9 +79,12 @@ class RegionGoal:
         contrast = float(self.smoothed.max() - self.smoothed.mean()) if count else 0.0
         self.weight = contrast if contrast > 0.0 else 0.0
         """w: the pull's length in u (0: no aim)."""
-        peak = self.smoothed == self.smoothed.max() if count else np.zeros(0, dtype=bool)
-        self.goal = self.centres[peak].mean(axis=0) if self.weight > 0.0 else None
+        self.goal = None
         """ḡ in map coordinates (None: no aim)."""
+        if self.weight > 0.0:
+            peak = self.smoothed == self.smoothed.max()
+            near = (peak | (links[peak] > 0).any(axis=0)) * self.values  # N[n*]'s values, 0 outside
+            self.goal = near @ self.centres / near.sum()
 
     def __call__(self, latents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """g of each row of ``latents [H, d]`` (``[H]``) and its gradient w.r.t. the latent (``[H, d]``)."""

@@ -202,9 +202,11 @@ def _assert_exact_gradient(value, grad: np.ndarray, x: np.ndarray) -> None:
 
 
 def test_region_goal_is_where_the_neighbour_averaged_values_peak_and_its_pull_is_exact() -> None:
-    """`RegionGoal`: s = each value averaged with its map neighbours', the goal the node where s peaks, the
-    pull's length the peak's contrast max s − mean s; a single spike among low neighbours loses to a plateau
-    of high ones (the noise third's fluctuating nodes against a region being learnt); exact gradient."""
+    """`RegionGoal`: s = each value averaged with its map neighbours', the goal the value-weighted centre of
+    the closed neighbourhood where s peaks, the pull's length the peak's contrast max s − mean s; a single
+    spike among low neighbours loses to a plateau of high ones (the noise third's fluctuating nodes against a
+    region being learnt); a node of value 0 beside a high one does not put the goal on itself; exact
+    gradient."""
     from core.dual.region_goal import RegionGoal
 
     # a chain 0-1-2 (a plateau being learnt) and a chain 3-4 (a spike at 4 beside a learnt node 3)
@@ -214,12 +216,20 @@ def test_region_goal_is_where_the_neighbour_averaged_values_peak_and_its_pull_is
     for a, b in ((0, 1), (1, 2), (3, 4)):
         adjacency[a, b] = adjacency[b, a] = True
     goal = RegionGoal(centres, values, unit=2.0, adjacency=adjacency)
-    np.testing.assert_allclose(goal.smoothed, [0.65, 1.9 / 3, 0.65, 0.5, 0.5])
-    np.testing.assert_allclose(goal.goal, [2.0, 0.0])  # the mean of the tied peaks 0 and 2
-    assert goal.weight == pytest.approx(0.65 - np.mean([0.65, 1.9 / 3, 0.65, 0.5, 0.5]))
+    smoothed = [0.65, 1.9 / 3, 0.65, 0.5, 0.5]
+    np.testing.assert_allclose(goal.smoothed, smoothed)
+    np.testing.assert_allclose(goal.goal, [2.0, 0.0])  # peaks 0 and 2: (0.6·c0 + 0.7·c1 + 0.6·c2) / 1.9
+    assert goal.weight == pytest.approx(0.65 - np.mean(smoothed))
     spike = RegionGoal(centres, values, unit=2.0)  # without the map's edges the spike is the peak
     np.testing.assert_allclose(spike.goal, [0.0, 8.0])
     assert spike.weight == pytest.approx(1.0 - values.mean())
+    # a star: node 0 (value 1) linked to three nodes of value 0; each leaf's average (0 + 1) / 2 beats the
+    # hub's 1 / 4, and the leaves' neighbourhoods hold value only at the hub, so the goal is the hub
+    star = np.zeros((4, 4), dtype=bool)
+    star[0, 1:] = star[1:, 0] = True
+    hub = RegionGoal(centres[:4], np.array([1.0, 0.0, 0.0, 0.0]), adjacency=star)
+    np.testing.assert_allclose(hub.smoothed, [0.25, 0.5, 0.5, 0.5])
+    np.testing.assert_allclose(hub.goal, centres[0])
     far, _ = goal(np.array([[2.0 + 6.0, 0.0]]) * 2.0)  # u = 6 map units beyond the goal
     assert far[0] == pytest.approx(-goal.weight * 6.0, rel=1e-6)  # − w · distance
     flat, flat_grad = RegionGoal(centres, np.full(5, 0.3), adjacency=adjacency)(centres)  # nothing stands out

@@ -9,16 +9,17 @@ the agent keeps until the step's transition arrives), :meth:`DualSystem.decide` 
 refit repair when due), :meth:`DualSystem.diagnostics` at each episode's end. The readings of every mechanism
 (`core.dual.readings`) are resolved once, here, and handed to the world models and the planner alike.
 
-Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_error`` (mean Eq. 8 error
-of the real transitions), ``no_change_error`` (the same error of the predictor φ̂′ = φ_t, r̂ = 0: the
-latent scale the model error is read against), ``mb_decisions`` / ``mf_decisions`` (counts),
-``horizon`` (mean H of the model-based decisions, NaN when none), ``itm_nodes``, ``imagined`` (latent
-transitions added), ``intrinsic_reward`` (mean r_int), ``region_rint_mean`` / ``region_rint_std`` (the
-r_int signal of the live regions at the episode's end: its mean, a cost or bonus per step, and its spread,
-its dependence on the region), ``plan_loss_drop`` (mean L_plan decrease over
-the K MPC steps), ``plan_action_shift`` (mean max-abs difference between the executed MPC action and the
-actor's μ(φ_t)), and with ``dual.refit_every`` set, ``refit_error`` (mean Eq. 8 error of the refit batches
-before the step).
+Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_error`` (mean Eq. 8 error of the
+real transitions), ``no_change_error`` (the same error of the predictor φ̂′ = φ_t, r̂ = 0: the latent scale
+the model error is read against), ``mb_decisions`` / ``mf_decisions`` (counts; model-based includes
+``steered_decisions``, an aiming planner's steps steered by its aim alone where the models are not trusted,
+`core.dual.meta_controller`), ``horizon`` (mean H of the planned decisions, NaN when none), ``itm_nodes``,
+``imagined`` (latent transitions added), ``intrinsic_reward`` (mean r_int), ``region_rint_mean`` /
+``region_rint_std`` (the r_int signal of the live regions at the episode's end: its mean, a cost or bonus per
+step, and its spread, its dependence on the region), ``plan_loss_drop`` (mean L_plan decrease over the K MPC
+steps), ``plan_action_shift`` (mean max-abs difference between the executed MPC action and the actor's
+μ(φ_t)), and with ``dual.refit_every`` set, ``refit_error`` (mean Eq. 8 error of the refit batches before the
+step).
 """
 
 from __future__ import annotations
@@ -62,6 +63,8 @@ class EpisodeCounters:
         self.plan_drops: list[float] = []
         self.action_shifts: list[float] = []
         self.refit_errors: list[float] = []
+        self.mb_decisions = 0
+        self.steered = 0
         self.mf_decisions = 0
         self.imagined = 0
 
@@ -116,6 +119,11 @@ class DualSystem:
             self._count_model_free()
             return actor(phi)[0].numpy(), None
         decision = self.meta.decide(phi, node, actor)
+        if decision.steered:  # by the aim alone: no rollout, nothing to imagine
+            self.counters.mb_decisions += 1
+            self.counters.steered += 1
+            self.total_mb_decisions += 1
+            return decision.action.numpy(), None
         if decision.model_based and decision.rollout is not None:
             self._count_model_based(decision.rollout, decision.plan)
             return decision.action.numpy(), decision.rollout
@@ -128,6 +136,7 @@ class DualSystem:
 
     def _count_model_based(self, rollout: Rollout, plan: PlanResult | None) -> None:
         self.counters.horizons.append(rollout.depth)
+        self.counters.mb_decisions += 1
         self.total_mb_decisions += 1
         if plan is not None:
             self.counters.plan_drops.append(plan.initial_loss - plan.final_loss)
@@ -204,7 +213,8 @@ class DualSystem:
         out = {
             "dual/model_error": mean_or_nan(c.errors),
             "dual/no_change_error": mean_or_nan(c.naive_errors),
-            "dual/mb_decisions": float(len(c.horizons)),
+            "dual/mb_decisions": float(c.mb_decisions),
+            "dual/steered_decisions": float(c.steered),
             "dual/mf_decisions": float(c.mf_decisions),
             "dual/horizon": mean_or_nan(c.horizons),
             "dual/itm_nodes": float(self.world.num_nodes),

@@ -8,6 +8,12 @@ At each step, with φ_t and its best-matching node n:
   K gradient steps on L_plan (Eq. 6-7, `core.dual.planning.optimise_plan`; with an aiming planner, minus
   c · the aim's pull, `LocalWorldModels.aim_goal`, at the latents node n's action map predicts) give
   â^(K), whose first action is returned;
+- otherwise, with an aiming planner whose goal exists and whose start node has an action map → steered: the
+  actor's actions along the latents the action map predicts, moved by K steps toward the goal alone
+  (`core.dual.planning.steer_plan`; no predicted reward, no rollout for imagination). Why: gated by the
+  models' reliability, an aim steered only where the models were already learnt — on the controlled check
+  the planner acted on 0.09-0.49 of steps by seed, and the seeds that planned least went to the learnable
+  third least though their goal lay there (docs/dual-system.md, item 16);
 - otherwise → model-free: μ(φ_t).
 
 Exploration noise is the caller's job (Alg. 2 line 20), as is storing the rollout's imagined
@@ -25,7 +31,7 @@ from dataclasses import dataclass
 import torch
 
 from core.config import DualConfig
-from core.dual.planning import ActorFn, PlanResult, Rollout, model_rollout, optimise_plan
+from core.dual.planning import ActorFn, PlanResult, Rollout, model_rollout, optimise_plan, steer_plan
 from core.dual.world_models import LocalWorldModels
 
 
@@ -39,6 +45,11 @@ class MetaDecision:
     rollout: Rollout | None = None
     """The model rollout (adaptive or fixed length) when model-based; its rows are imagined transitions."""
     plan: PlanResult | None = None
+
+    @property
+    def steered(self) -> bool:
+        """Steered by an aiming planner's goal alone (model-based without a rollout, `steer_plan`)."""
+        return self.model_based and self.rollout is None
 
 
 class MetaController:
@@ -65,7 +76,8 @@ class MetaController:
 
     @torch.no_grad()
     def decide(self, phi: torch.Tensor, node: int, actor: ActorFn) -> MetaDecision:
-        """Model-based (rollout + gradient MPC) when LP_{t,n} ≥ 0, else μ(φ_t)."""
+        """Model-based (rollout + gradient MPC) when LP_{t,n} ≥ 0; else, with an aiming planner and a goal,
+        steered toward it (`steer_plan`); else μ(φ_t)."""
         phi = phi.reshape(1, -1)
         if self.world.reliable(node):
             rollout = self.rollout(phi, node, actor)
@@ -76,4 +88,11 @@ class MetaController:
                                      lr=cfg.plan_lr, r_star=cfg.r_star, aim=aim,
                                      aim_scale=cfg.intrinsic_scale)
                 return MetaDecision(action=plan.action, model_based=True, rollout=rollout, plan=plan)
+        if self.planner.aim != "none" and self.fixed_horizon is None:
+            aim = self.world.aim_goal(self.planner.aim, node)
+            if aim is not None and aim.goal is not None and aim.action_map is not None:
+                cfg = self.config
+                plan = steer_plan(phi, actor, aim, self.planner, horizon=cfg.d_max, steps=cfg.plan_steps,
+                                  lr=cfg.plan_lr)
+                return MetaDecision(action=plan.action, model_based=True, plan=plan)
         return MetaDecision(action=actor(phi)[0], model_based=False)

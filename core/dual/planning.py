@@ -214,6 +214,45 @@ def optimise_plan(
     )
 
 
+def steer_plan(
+    phi: torch.Tensor,
+    actor: ActorFn,
+    aim: RegionGoal,
+    planner: Planner,
+    horizon: int,
+    steps: int = 10,
+    lr: float = 1e-3,
+) -> PlanResult:
+    """The aim alone, where the local models are not trusted (`core.dual.meta_controller`): the actor's
+    actions along the latents the start node's action map predicts are the initial plan ``[horizon,
+    action]``, and K steps of ``planner``'s Eq. 7 step (and clip) on −Σ_h g(φ̃_{h+1}) (`RegionGoal.plan_term`)
+    move it toward the goal; no predicted reward enters. The loss is reported as −Σ g."""
+    if aim.action_map is None or aim.goal is None or horizon < 1:
+        raise ValueError("steer_plan needs an aim with a goal and an action map, and a horizon >= 1")
+    step, project = STEPS[planner.optimiser], planner.clip == "every_step"
+    action_map = aim.action_map
+    start = torch.as_tensor(phi, dtype=torch.float64).reshape(-1).numpy()
+    latent, rows = start, []
+    for _ in range(horizon):
+        action = actor(torch.from_numpy(latent).to(torch.float32).reshape(1, -1))[0].double().numpy()
+        rows.append(action)
+        latent = action_map.carries @ latent + action_map.moves @ action + action_map.drift
+    plan = np.stack(rows)
+    if project:
+        np.clip(plan, -1.0, 1.0, out=plan)
+    losses = []
+    for _ in range(steps):
+        pull, d_pull = aim.plan_term(start, plan)
+        losses.append(-pull)
+        step(plan, -d_pull, lr)
+        if project:
+            np.clip(plan, -1.0, 1.0, out=plan)
+    final = -aim.plan_term(start, plan)[0]
+    plan_t = torch.from_numpy(plan).to(torch.float32)
+    return PlanResult(action=plan_t[0].clamp(-1.0, 1.0), plan=plan_t,
+                      initial_loss=float(losses[0] if losses else final), final_loss=float(final))
+
+
 class _PlanModel:
     """The rollout's local models, gathered once as float64 NumPy arrays: L_plan (Eq. 6 or the per-step form)
     and its gradient w.r.t. the plan, back-propagated through time with `LocalModel`'s chain rule."""

@@ -22,7 +22,9 @@ constants are `HeldOut`.
 - planner (`Planner`): paper — (R* − Σ r̂)², plain gradient, only the executed action clipped; released —
   ½ Σ (1 − r̂)², otherwise paper; repaired — (R* − Σ r̂)², normalised steps, every plan action clipped;
   progress — the predicted return plus c · the learning progress of the regions the plan reaches, maximised,
-  steps and clip as repaired; novelty — the same with the regions' prediction error instead of progress.
+  steps and clip as repaired, and where the models are not trusted the plan steered toward that goal alone;
+  novelty — the same with the regions' prediction error instead of progress; disagreement — with an
+  ensemble's variance.
 - imagination (`Imagination`): paper (= the released code) — the act-time rollout in B_latent, all kept, no
   termination head; repaired — learn-time rollouts, the no-change gate, a termination head;
   repaired_no_termination — repaired without the head, the one combination a shipped experiment ran that is
@@ -167,10 +169,12 @@ class Planner:
     α (a step in action units). ``clip``: only the executed action to [−1, 1], or every plan action after
     every step (a projection). ``aim``: what the plan seeks beside the predicted reward, c · Σ_h
     g(φ̃_{h+1}) with c = ``dual.intrinsic_scale``, g the pull toward where the regions' values, averaged
-    over map neighbours, peak, and φ̃ the latents the start node's action map predicts
-    (`core.dual.region_goal.RegionGoal.plan_term`), one value per region: none; ``progress`` — the
-    region's learning progress (`core.dual.lagged_progress`: the drop from a lagged model's error to the
-    current model's on the region's held-out transitions, as a share of the lagged error); ``novelty`` —
+    over map neighbours and capped at each region's own, peak, and φ̃ the latents the start node's action map
+    predicts (`core.dual.region_goal.RegionGoal.plan_term`); where the models are not trusted, an aiming
+    planner steers toward that goal alone (`core.dual.planning.steer_plan`). One value per region: none;
+    ``progress`` — the region's learning progress (`core.dual.lagged_progress`: the growth of the current
+    model's gain over a lagged copy's, each gain the share of the action-free least-squares predictor's error
+    the model removes, on the region's held-out transitions); ``novelty`` —
     the region's model error over its no-change error (prediction-error curiosity: large where the model
     is wrong, noise included); ``disagreement`` — the variance of an ensemble of the region's models
     (Plan2Explore, MAX: epistemic uncertainty)."""

@@ -6,30 +6,29 @@ The planner's aim (``dual.planner`` = ``progress``, ``novelty`` or ``disagreemen
 ensemble disagreement. `RegionGoal` turns those values into one goal in the map's coordinates u(φ) (φ, or
 φ / s with a normalised map) and a term the plan maximises (Eq. 7's gradient MPC,
 `core.dual.planning.optimise_plan`). Each value is first averaged with its map neighbours' (A the live nodes'
-adjacency, the ITM's edges), the goal lies in the neighbourhood where that average peaks, and the pull's
-length is the peak's contrast:
+adjacency, the ITM's edges) and capped at the node's own value, the goal is the node (or the mean of the
+nodes) where that capped average peaks, and the pull's length is the peak's contrast:
 
-    s_n = (v_n + Σ_m A_nm v_m) / (1 + Σ_m A_nm),   n* = argmax s,
-    ḡ = Σ_{m ∈ N[n*]} v_m c_m / Σ_{m ∈ N[n*]} v_m,   w = max_n s_n − s̄,
+    s_n = min(v_n, (v_n + Σ_m A_nm v_m) / (1 + Σ_m A_nm)),   ḡ = c_{argmax s},   w = max_n s_n − s̄,
     g(φ) = −w · √(‖u(φ) − ḡ‖² + ε²),
 
-with v_n clipped at 0, s̄ the mean over the live nodes and N[n*] the peak's closed neighbourhood (the peak and
-its map neighbours; the union over tied peaks): the goal is the value-weighted centre of the neighbourhood
-whose average peaks. Why a smoothed peak (docs/dual-system.md, items 14-16): the contrast-weighted centre of
-every node above the mean (the previous goal) fell between the learnable third and the single nodes of the
-noise third whose values fluctuate, in the middle third, though on the planner's own visits the learnable
-third's mean value ranked highest in 16 of 20 snapshots; the single highest node chased those fluctuations. A
-region that is being learnt is many neighbouring nodes with high values; noise is single nodes that stand out
-now and then, and a neighbour average keeps the first and damps the second. Why the neighbourhood's
-value-weighted centre and not the peak node itself: a node's average includes its neighbours, so a node of
-value 0 beside one high node outscores that node when the high node has more neighbours. On the machinery
-check with the true aim (values 1 in the learnable third, 0 elsewhere) the goal then sat for thousands of
-steps at a node of the middle third and then of the noise third, linked by a long ITM edge to the learnable
-third's one node (docs/dual-system.md, item 17); capping each average at the node's own value fixed that but
-lost the centres of plateaus whose own value dips, which the progress planner on its own visits relied on. The
-pull has unit length in u, scaled by the contrast, so it fades as the values even out or go to 0 and the
-extrinsic return takes over; ε (1e-3, map units) keeps it smooth at the goal. No contrast (all smoothed values
-equal): no aim.
+with v_n clipped at 0 and s̄ the mean over the live nodes. Why a smoothed peak (docs/dual-system.md, items
+14-16): the contrast-weighted centre of every node above the mean (the previous goal) fell between the
+learnable third and the single nodes of the noise third whose values fluctuate, in the middle third, though
+on the planner's own visits the learnable third's mean value ranked highest in 16 of 20 snapshots; the single
+highest node chased those fluctuations. A region that is being learnt is many neighbouring nodes with high
+values; noise is single nodes that stand out now and then, and a neighbour average keeps the first and damps
+the second. Why capped at the node's own value (item 17): uncapped, a node of value 0 beside one high node
+outscored that node when the high node had more neighbours — on the machinery check with the true aim (values
+1 in the learnable third, 0 elsewhere) the goal sat for thousands of steps at a node of the middle third, then
+of the noise third, linked by a long ITM edge to the learnable third's one node. The cap (probe 7) put the
+true aim's planner in the learnable third 0.874 of its steps; the value-weighted centre of the peak's
+neighbourhood (the other repair tried) did better with the planner gated by the models' reliability, but with
+the aim steering where the models are not trusted (`core.dual.meta_controller`, the progress reading) the cap
+did better on the same tuning seeds (learnable share of the second half 0.443 against 0.300, paired p =
+0.043; item 17, probes 8 and 9). The pull has unit length in u, scaled by the contrast, so it fades as the
+values even out or go to 0 and the extrinsic return takes over; ε (1e-3, map units) keeps it smooth at the
+goal. No contrast (all smoothed values equal): no aim.
 
 How actions move the latent toward the goal is the start node's `ActionMap` (`core.dual.action_map`: a
 least-squares fit of Δφ on the action, the state and a constant over the node's stored transitions, kept along
@@ -73,18 +72,16 @@ class RegionGoal:
         links = np.zeros((count, count)) if adjacency is None else np.asarray(adjacency, dtype=np.float64)
         if links.shape != (count, count):
             raise ValueError(f"adjacency must be [{count}, {count}], got {links.shape}")
-        self.smoothed = (self.values + links @ self.values) / (1.0 + links.sum(axis=1))
-        """s_n, each value averaged with its map neighbours'."""
+        average = (self.values + links @ self.values) / (1.0 + links.sum(axis=1))
+        self.smoothed = np.minimum(self.values, average)
+        """s_n, each value averaged with its map neighbours', capped at the node's own."""
         self.unit = 1.0 if unit is None else float(unit)
         contrast = float(self.smoothed.max() - self.smoothed.mean()) if count else 0.0
         self.weight = contrast if contrast > 0.0 else 0.0
         """w: the pull's length in u (0: no aim)."""
-        self.goal = None
-        """ḡ in map coordinates (None: no aim)."""
-        if self.weight > 0.0:
-            peak = self.smoothed == self.smoothed.max()
-            near = (peak | (links[peak] > 0).any(axis=0)) * self.values  # N[n*]'s values, 0 outside
-            self.goal = near @ self.centres / near.sum()
+        peak = self.smoothed == self.smoothed.max() if count else np.zeros(0, dtype=bool)
+        self.goal = self.centres[peak].mean(axis=0) if self.weight > 0.0 else None
+        """ḡ in map coordinates, the mean of the tied peaks (None: no aim)."""
 
     def __call__(self, latents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """g of each row of ``latents [H, d]`` (``[H]``) and its gradient w.r.t. the latent (``[H, d]``)."""

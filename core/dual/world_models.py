@@ -144,7 +144,7 @@ class LocalWorldModels:
             self.heldout.reset_nodes(np.arange(capacity))
         self.lagged_progress = (LaggedProgress(self.bank, self.heldout) if read.planner.aim == "progress"
                                 and self.heldout is not None else None)
-        """Fractional held-out progress per node, what the ``progress`` planner aims at
+        """Held-out gain growth per node, what the ``progress`` planner aims at
         (`core.dual.lagged_progress`)."""
         self.disagreement = (EnsembleDisagreement(self.bank, seed=int(self.bank.generator.initial_seed()) + 1)
                              if read.planner.aim == "disagreement" else None)
@@ -339,11 +339,11 @@ class LocalWorldModels:
                           adjacency=self.itm.adjacency(regions))
 
     def aim_values(self, aim: str, regions: np.ndarray) -> np.ndarray:
-        """Each region's value for an aim: `LaggedProgress.relative` (progress),
+        """Each region's value for an aim: `LaggedProgress.progress` (progress),
         `EnsembleDisagreement.relative` (disagreement) or `HeldOutReliability.relative_error` (novelty)."""
         if aim == "progress":
             assert self.lagged_progress is not None
-            return self.lagged_progress.relative(regions)
+            return self.lagged_progress.progress(regions)
         if aim == "disagreement":
             assert self.disagreement is not None
             return self.disagreement.relative(regions, self.unit.scale)

@@ -201,12 +201,11 @@ def _assert_exact_gradient(value, grad: np.ndarray, x: np.ndarray) -> None:
         assert grad[row, dim] == pytest.approx(numeric, rel=1e-5, abs=1e-8)
 
 
-def test_region_goal_is_where_the_neighbour_averaged_values_peak_and_its_pull_is_exact() -> None:
-    """`RegionGoal`: s = each value averaged with its map neighbours', the goal the value-weighted centre of
-    the closed neighbourhood where s peaks, the pull's length the peak's contrast max s − mean s; a single
-    spike among low neighbours loses to a plateau of high ones (the noise third's fluctuating nodes against a
-    region being learnt); a node of value 0 beside a high one does not put the goal on itself; exact
-    gradient."""
+def test_region_goal_is_where_the_capped_neighbour_average_peaks_and_its_pull_is_exact() -> None:
+    """`RegionGoal`: s = each value averaged with its map neighbours' and capped at its own, the goal the node
+    where s peaks, the pull's length the peak's contrast max s − mean s; a single spike among low neighbours
+    loses to a plateau of high ones (the noise third's fluctuating nodes against a region being learnt); a
+    node of value 0 beside a high one does not put the goal on itself; exact gradient."""
     from core.dual.region_goal import RegionGoal
 
     # a chain 0-1-2 (a plateau being learnt) and a chain 3-4 (a spike at 4 beside a learnt node 3)
@@ -216,20 +215,24 @@ def test_region_goal_is_where_the_neighbour_averaged_values_peak_and_its_pull_is
     for a, b in ((0, 1), (1, 2), (3, 4)):
         adjacency[a, b] = adjacency[b, a] = True
     goal = RegionGoal(centres, values, unit=2.0, adjacency=adjacency)
-    smoothed = [0.65, 1.9 / 3, 0.65, 0.5, 0.5]
+    smoothed = [0.6, 1.9 / 3, 0.6, 0.0, 0.5]  # averages 0.65, 0.633, 0.65, 0.5, 0.5, each capped at its value
     np.testing.assert_allclose(goal.smoothed, smoothed)
-    np.testing.assert_allclose(goal.goal, [2.0, 0.0])  # peaks 0 and 2: (0.6·c0 + 0.7·c1 + 0.6·c2) / 1.9
-    assert goal.weight == pytest.approx(0.65 - np.mean(smoothed))
+    np.testing.assert_allclose(goal.goal, centres[1])  # the plateau's middle, not the spike
+    assert goal.weight == pytest.approx(1.9 / 3 - np.mean(smoothed))
     spike = RegionGoal(centres, values, unit=2.0)  # without the map's edges the spike is the peak
     np.testing.assert_allclose(spike.goal, [0.0, 8.0])
     assert spike.weight == pytest.approx(1.0 - values.mean())
-    # a star: node 0 (value 1) linked to three nodes of value 0; each leaf's average (0 + 1) / 2 beats the
-    # hub's 1 / 4, and the leaves' neighbourhoods hold value only at the hub, so the goal is the hub
+    # a star: node 0 (value 1) linked to three nodes of value 0; uncapped, each leaf's average (0 + 1) / 2
+    # beat the hub's 1 / 4 and the goal sat on a leaf of value 0; capped, the leaves score 0
     star = np.zeros((4, 4), dtype=bool)
     star[0, 1:] = star[1:, 0] = True
     hub = RegionGoal(centres[:4], np.array([1.0, 0.0, 0.0, 0.0]), adjacency=star)
-    np.testing.assert_allclose(hub.smoothed, [0.25, 0.5, 0.5, 0.5])
+    np.testing.assert_allclose(hub.smoothed, [0.25, 0.0, 0.0, 0.0])
     np.testing.assert_allclose(hub.goal, centres[0])
+    tied = RegionGoal(centres[:2], np.array([0.5, 0.5]), adjacency=np.zeros((2, 2)))
+    assert tied.goal is None  # equal values: no contrast, no aim
+    far_goal = RegionGoal(centres[[0, 2, 3]], np.array([0.4, 0.4, 0.0]))
+    np.testing.assert_allclose(far_goal.goal, [2.0, 0.0])  # tied peaks: their mean
     far, _ = goal(np.array([[2.0 + 6.0, 0.0]]) * 2.0)  # u = 6 map units beyond the goal
     assert far[0] == pytest.approx(-goal.weight * 6.0, rel=1e-6)  # − w · distance
     flat, flat_grad = RegionGoal(centres, np.full(5, 0.3), adjacency=adjacency)(centres)  # nothing stands out
@@ -366,6 +369,72 @@ def test_an_aimed_plan_gradient_is_exact_and_steps_toward_the_aim() -> None:
     aimed = optimise_plan(phi, rollout, bank, PLANNER["progress"], steps=10, lr=0.05, aim=field,
                           aim_scale=1.0)
     assert aimed.final_loss < aimed.initial_loss
+
+
+def test_a_steered_plan_starts_at_the_actors_actions_and_moves_toward_the_goal_alone() -> None:
+    """`steer_plan`: the initial plan is the actor's actions along the latents the action map predicts; K
+    steps on −Σ g move the plan toward the goal (its loss, −Σ g, falls; the first action points along B
+    toward the goal); every action stays in [−1, 1]; no goal or no action map is refused."""
+    from core.dual.action_map import ActionMap
+    from core.dual.planning import steer_plan
+    from core.dual.region_goal import RegionGoal
+
+    moves = np.array([[0.5, 0.0], [0.0, 0.5], [0.0, 0.0]])
+    centres = np.array([[0.0, 0.0, 0.0], [3.0, -2.0, 0.0]])
+    goal = RegionGoal(centres, np.array([0.0, 1.0]), action_map=ActionMap(moves, np.eye(3), np.zeros(3)))
+    calls = []
+
+    def actor(phi: torch.Tensor) -> torch.Tensor:
+        calls.append(phi.clone())
+        return torch.zeros(1, 2)
+
+    phi = torch.zeros(1, 3)
+    zero = steer_plan(phi, actor, goal, PLANNER["progress"], horizon=4, steps=0)
+    assert len(calls) == 4 and not zero.plan.any()  # the actor's actions along the predicted latents
+    assert zero.final_loss == pytest.approx(-goal.plan_term(np.zeros(3), np.zeros((4, 2)))[0])
+    steered = steer_plan(phi, actor, goal, PLANNER["progress"], horizon=4, steps=20, lr=0.05)
+    assert steered.final_loss < steered.initial_loss
+    assert steered.action[0] > 0.0 > steered.action[1]  # toward the goal's (+x, −y)
+    assert steered.plan.abs().max() <= 1.0
+    for aim in (RegionGoal(centres, np.array([0.0, 1.0])), RegionGoal(centres, np.zeros(2))):
+        with pytest.raises(ValueError, match="goal and an action map"):
+            steer_plan(phi, actor, aim, PLANNER["progress"], horizon=4)
+
+
+def test_an_aiming_planner_steers_where_the_models_are_not_trusted_and_other_planners_do_not() -> None:
+    """`MetaController.decide`: at a node that is not reliable, an aiming planner with a goal and an action
+    map steers (model-based, no rollout: nothing to imagine); the ``repaired`` planner acts model-free
+    there."""
+    from core.config import load_config
+    from core.dual.meta_controller import MetaController
+    from core.dual.readings import resolve
+    from core.dual.world_models import LocalWorldModels
+
+    class Untrusted(LocalWorldModels):
+        def reliable(self, node: int) -> bool:
+            return False
+
+        def aim_values(self, aim: str, regions: np.ndarray) -> np.ndarray:
+            return (self.itm.weights(regions)[:, 0] > 0.0).astype(np.float64)  # the right half
+
+    actor = lambda phi: torch.zeros(phi.shape[0], 2)  # noqa: E731
+    rng = np.random.default_rng(0)
+    decisions = {}
+    for planner in ("progress", "repaired"):
+        dual = load_config("default", [f"dual.planner={planner}"]).dual
+        world = Untrusted(dual, 3, 2, generator=torch.Generator().manual_seed(0), readings=resolve(dual))
+        for _ in range(300):
+            phi = torch.tensor([*rng.uniform(-1.0, 1.0, size=2), 0.0], dtype=torch.float32)
+            action = rng.uniform(-1.0, 1.0, size=2)
+            node = world.observe_state(phi)
+            nxt = phi + torch.tensor([0.05 * action[0], 0.05 * action[1], 0.0], dtype=torch.float32)
+            world.learn_transition(node, phi, torch.tensor(action, dtype=torch.float32), 0.0, nxt)
+        start = torch.tensor([-0.9, 0.0, 0.0])
+        decisions[planner] = MetaController(world, dual).decide(start, world.observe_state(start), actor)
+    steered, plain = decisions["progress"], decisions["repaired"]
+    assert steered.model_based and steered.steered and steered.rollout is None
+    assert steered.action[0] > 0.0  # toward the right half
+    assert not plain.model_based and not plain.steered and not plain.action.any()
 
 
 def test_the_plan_bench_times_both_readings_on_a_node_with_an_action_map() -> None:

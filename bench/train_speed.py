@@ -46,7 +46,15 @@ def known_methods() -> tuple[str, ...]:
     return tuple(dict.fromkeys((*METHODS, *sorted(ALGOS))))
 
 
-def _config(algo: str, batch: int | None, buffer: int, env: str | None = None) -> Config:
+def _config(
+    algo: str,
+    batch: int | None,
+    buffer: int,
+    env: str | None = None,
+    profile: str = "default",
+    settings: tuple[str, ...] = (),
+) -> Config:
+    """The timed config: ``profile`` with the bench's own keys, then the user's ``settings`` (KEY=VALUE)."""
     overrides = [
         f"run.algo={algo}",
         *([f"env.id={env}"] if env else []),
@@ -56,13 +64,21 @@ def _config(algo: str, batch: int | None, buffer: int, env: str | None = None) -
     ]
     if batch is not None:
         overrides.append(f"agent.batch_size={batch}")
-    return load_config("default", overrides)
+    return load_config(profile, [*overrides, *settings])
 
 
 def _ours(
-    algo: str, batch: int | None, buffer: int, warmup: int, steps: int, seed: int, env_id: str | None = None
+    algo: str,
+    batch: int | None,
+    buffer: int,
+    warmup: int,
+    steps: int,
+    seed: int,
+    env_id: str | None = None,
+    profile: str = "default",
+    settings: tuple[str, ...] = (),
 ) -> tuple[float, int]:
-    config = _config(algo, batch, buffer, env_id)
+    config = _config(algo, batch, buffer, env_id, profile, settings)
     config.agent.learning_starts = warmup
     torch.manual_seed(seed)
     adapted = make_env(config)
@@ -171,10 +187,17 @@ def measure(
     seed: int = 0,
     threads: int | None = None,
     env: str | None = None,
+    profile: str = "default",
+    settings: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """ms per training step for each method (median over ``rounds`` alternating rounds) on ``env``.
 
-    ``threads``: torch threads for both (default: the default profile's ``run.num_threads``).
+    ``threads``: torch threads for both (default: the default profile's ``run.num_threads``). ``profile``
+    and ``settings`` (KEY=VALUE overrides, after the bench's own) shape our methods only; SB3's methods keep
+    the default profile's sizes. E.g. the cost of the progress planner against SB3-default SAC on
+    MountainCar: ``profile="vector"``, ``algos=("sac", "im2c")``, ``settings=("agent.ac=sac",
+    "dual.planner=progress", "net.mlp_hidden=[256,256]", "agent.batch_size=256")`` (``dual.*`` is inert for
+    ``sac``).
     """
     if threads is None:
         threads = load_config("default").run.num_threads
@@ -190,7 +213,7 @@ def measure(
             if name.startswith("sb3-"):
                 ms, used_batch = _sb3(name.removeprefix("sb3-"), batch, buffer, warmup, steps, seed, env)
             else:
-                ms, used_batch = _ours(name, batch, buffer, warmup, steps, seed, env)
+                ms, used_batch = _ours(name, batch, buffer, warmup, steps, seed, env, profile, settings)
             samples[name].append(ms)
             batches[name] = used_batch
     result: dict[str, Any] = {
@@ -202,6 +225,8 @@ def measure(
         for name, values in samples.items()
     }
     result["env"] = env or "dualsys/NicoGrasp-v0"
+    result["profile"] = profile
+    result["settings"] = list(settings)
     result["threads"] = threads
     result["timed_steps"] = steps
     return result

@@ -72,6 +72,13 @@ def bench_train(
     steps: int = typer.Option(300, min=10, help="Timed training steps per method and round."),
     rounds: int = typer.Option(2, min=1, help="Alternating rounds; the median is reported."),
     env: str = typer.Option(None, "--env", help="Gymnasium id (default: NicoGrasp)."),
+    profile: str = typer.Option("default", help="Config profile of our methods (default, vector, paper)."),
+    settings: list[str] = typer.Option(
+        [],
+        "--set",
+        help="KEY=VALUE config override for our methods, repeatable (e.g. --set agent.ac=sac "
+        "--set dual.planner=progress).",
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line."),
 ) -> None:
     """Milliseconds per training step (env step + one update): dualsys vs Stable-Baselines3 DDPG."""
@@ -84,6 +91,8 @@ def bench_train(
             steps=steps,
             rounds=rounds,
             env=env,
+            profile=profile,
+            settings=tuple(settings),
         )
     _emit(result, as_json)
 

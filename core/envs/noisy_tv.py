@@ -162,10 +162,11 @@ def run_measures(run_dir: Path | str) -> dict[str, float]:
 def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> dict[str, Any]:
     """The late-half measures of an experiment folder (``EXP/<label>/<task>/seed-N``), per method.
 
-    For each method: its per-seed ``late/noise_share`` and ``late/coverage_rest`` (keyed by seed), the IQM
-    with its 95 % bootstrap CI of each (`core.experiments.statistics.score_summary`), and against each
-    method in ``baselines`` that has runs: P(less time at the noise) — P(X < Y) on ``late/noise_share``, ties
-    counted half — and P(more coverage) — P(X > Y) on ``late/coverage_rest`` — each with its bootstrap CI
+    Only finished runs count (those with a summary.json). For each method: its per-seed
+    ``late/noise_share`` and ``late/coverage_rest`` (in seed order), the IQM with its 95 % bootstrap CI of
+    each (`core.experiments.statistics.score_summary`), and against each method in ``baselines`` that has
+    runs: P(less time at the noise) — P(X < Y) on ``late/noise_share``, ties counted half — and P(more
+    coverage) — P(X > Y) on ``late/coverage_rest`` — each with its bootstrap CI
     (`probability_of_improvement`; issue 50's noisy-TV goals: both CIs above 0.5)."""
     from core.experiments.statistics import probability_of_improvement, score_summary
 
@@ -173,8 +174,8 @@ def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> d
     runs: dict[str, dict[int, dict[str, float]]] = {}
     for metrics in sorted(root.rglob("metrics.csv")):
         run = metrics.parent
-        if not run.name.startswith("seed-"):
-            continue
+        if not run.name.startswith("seed-") or not (run / "summary.json").exists():
+            continue  # not a cell, or a cell still running (a run writes summary.json when it ends)
         label = run.relative_to(root).parts[0]
         runs.setdefault(label, {})[int(run.name.removeprefix("seed-"))] = run_measures(run)
     table: dict[str, Any] = {}

@@ -159,69 +159,16 @@ def run_measures(run_dir: Path | str) -> dict[str, float]:
         return late_half_measures(csv.DictReader(file), budget)
 
 
-def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> dict[str, Any]:
-    """The late-half measures of an experiment folder (``EXP/<label>/<task>/seed-N``), per method.
-
-    Only finished runs count (those with a summary.json). For each method: its per-seed
-    ``late/noise_share`` and ``late/coverage_rest`` (in seed order), the IQM with its 95 % bootstrap CI of
-    each (`core.experiments.statistics.score_summary`), and against each method in ``baselines`` that has
-    runs: P(less time at the noise) — P(X < Y) on ``late/noise_share``, ties counted half — and P(more
-    coverage) — P(X > Y) on ``late/coverage_rest`` — each with its bootstrap CI
-    (`probability_of_improvement`; issue 50's noisy-TV goals: both CIs above 0.5)."""
-    from core.experiments.statistics import probability_of_improvement, score_summary
-
-    root = Path(experiment_dir)
-    runs: dict[str, dict[int, dict[str, float]]] = {}
-    for metrics in sorted(root.rglob("metrics.csv")):
-        run = metrics.parent
-        if not run.name.startswith("seed-") or not (run / "summary.json").exists():
-            continue  # not a cell, or a cell still running (a run writes summary.json when it ends)
-        label = run.relative_to(root).parts[0]
-        runs.setdefault(label, {})[int(run.name.removeprefix("seed-"))] = run_measures(run)
-    table: dict[str, Any] = {}
-    for label, by_seed in runs.items():
-        noise = [by_seed[seed]["late/noise_share"] for seed in sorted(by_seed)]
-        coverage = [by_seed[seed]["late/coverage_rest"] for seed in sorted(by_seed)]
-        row: dict[str, Any] = {
-            "seeds": sorted(by_seed),
-            "noise_share": noise,
-            "coverage_rest": coverage,
-            "noise_share_iqm": score_summary(noise),
-            "coverage_rest_iqm": score_summary(coverage),
-        }
-        for baseline in baselines:
-            if baseline == label or baseline not in runs:
-                continue
-            other = runs[baseline]
-            other_noise = [other[seed]["late/noise_share"] for seed in sorted(other)]
-            other_coverage = [other[seed]["late/coverage_rest"] for seed in sorted(other)]
-            row[f"P(less noise than {baseline})"] = probability_of_improvement(
-                [-v for v in noise], [-v for v in other_noise]
-            )
-            row[f"P(more coverage than {baseline})"] = probability_of_improvement(coverage, other_coverage)
-        table[label] = row
-    return table
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m core.envs.noisy_tv DIR...``: one JSON line per run directory found under each DIR (a
-    run, a cell folder or a whole experiment), with its late-half measures.
-
-    ``python -m core.envs.noisy_tv --table EXPERIMENT_DIR [BASELINE...]``: one JSON line per method of the
-    experiment (`method_table`), compared with each BASELINE label (e.g. ``SAC SAC+RND``)."""
-    args = list(sys.argv[1:] if argv is None else argv)
-    if args[:1] == ["--table"]:
-        if len(args) < 2:
-            print("usage: python -m core.envs.noisy_tv --table EXPERIMENT_DIR [BASELINE...]", file=sys.stderr)
-            return 2
-        for label, row in method_table(args[1], args[2:]).items():
-            print(json.dumps({"method": label, **row}))
-        return 0
-    if not args:
+    run, a cell folder or a whole experiment), with its late-half measures (per method, with IQMs and P
+    against baselines: ``python -m core.experiments.noisy_tv_table``)."""
+    dirs = list(sys.argv[1:] if argv is None else argv)
+    if not dirs:
         print("usage: python -m core.envs.noisy_tv DIR...  (runs, cells or experiment folders)",
               file=sys.stderr)
         return 2
-    for top in map(Path, args):
+    for top in map(Path, dirs):
         for metrics in sorted(top.rglob("metrics.csv")):
             print(json.dumps({"run": str(metrics.parent), **run_measures(metrics.parent)}))
     return 0

@@ -21,7 +21,6 @@ from core.envs.noisy_tv import (
     encode_cells,
     late_half_measures,
     main,
-    method_table,
     run_measures,
 )
 from core.runs.run_dir import MetricsCSV
@@ -179,32 +178,3 @@ def test_trained_run_writes_the_masks_and_the_measure_reads_it(tmp_path, capsys)
     line = json.loads(capsys.readouterr().out)
     assert line["run"] == str(tmp_path / "run") and line["late/episodes"] == 1
 
-
-def test_method_table_groups_runs_by_method_and_compares_each_with_the_baselines(tmp_path, capsys) -> None:
-    def run(label: str, seed: int, noise: float, cells: int) -> None:
-        visited = np.zeros((15, 15), dtype=bool)
-        visited.reshape(-1)[:cells] = True  # the first `cells` cells by column: all rest cells for ≤ 150
-        metrics = MetricsCSV(tmp_path / "exp" / label / "task" / f"seed-{seed}" / "metrics.csv")
-        metrics.append({"episode": 1, "global_step": 400, "charts/length": 200, "env/noise_share": noise,
-                        "env/coverage_rest": 0.0, **encode_cells(visited)})
-        if label != "running":
-            (metrics.path.parent / "summary.json").write_text("{}")
-
-    for seed, (noise, cells) in enumerate([(0.0, 90), (0.1, 60)]):
-        run("aimed", seed, noise, cells)
-    for seed, (noise, cells) in enumerate([(0.8, 30), (0.9, 15)]):
-        run("drawn", seed, noise, cells)
-    run("running", 0, 1.0, 1)  # no summary.json yet: a cell still running is left out
-    table = method_table(tmp_path / "exp", baselines=["drawn", "absent"])
-    assert table["aimed"]["seeds"] == [0, 1] and table["aimed"]["coverage_rest"] == [90 / 150, 60 / 150]
-    assert table["aimed"]["noise_share"] == [0.0, 0.1]
-    # every aimed run is off the noise and covers more than every drawn run: P = 1 both ways
-    assert table["aimed"]["P(less noise than drawn)"]["p"] == 1.0
-    assert table["aimed"]["P(more coverage than drawn)"]["p"] == 1.0
-    # no comparison with itself, nor with a label that has no runs
-    assert not any("absent" in key for key in table["aimed"])
-    assert not any("than drawn" in key for key in table["drawn"])
-    assert main(["--table", str(tmp_path / "exp"), "drawn"]) == 0
-    lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
-    assert [line["method"] for line in lines] == ["aimed", "drawn"]  # not "running"
-    assert main(["--table"]) == 2

@@ -1,0 +1,78 @@
+"""The noisy TV's late-half measures per method of an experiment, with IQMs and P against baselines.
+
+Issue 50, item 4: `core.envs.noisy_tv` measures one run (``late/noise_share``, ``late/coverage_rest`` over the
+late half of training); this module gathers an experiment folder's finished runs by method and summarises them
+with `core.experiments.statistics` (it lives here, not beside the env, because envs sit below experiments).
+
+``python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...]``: one JSON line per method,
+compared with each BASELINE label (e.g. ``SAC SAC+RND``).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from core.envs.noisy_tv import run_measures
+from core.experiments.statistics import probability_of_improvement, score_summary
+
+
+def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> dict[str, Any]:
+    """The late-half measures of an experiment folder (``EXP/<label>/<task>/seed-N``), per method.
+
+    Only finished runs count (those with a summary.json). For each method: its per-seed
+    ``late/noise_share`` and ``late/coverage_rest`` (in seed order), the IQM with its 95 % bootstrap CI of
+    each (`core.experiments.statistics.score_summary`), and against each method in ``baselines`` that has
+    runs: P(less time at the noise) — P(X < Y) on ``late/noise_share``, ties counted half — and P(more
+    coverage) — P(X > Y) on ``late/coverage_rest`` — each with its bootstrap CI
+    (`probability_of_improvement`; issue 50's noisy-TV goals: both CIs above 0.5)."""
+    root = Path(experiment_dir)
+    runs: dict[str, dict[int, dict[str, float]]] = {}
+    for metrics in sorted(root.rglob("metrics.csv")):
+        run = metrics.parent
+        if not run.name.startswith("seed-") or not (run / "summary.json").exists():
+            continue  # not a cell, or a cell still running (a run writes summary.json when it ends)
+        label = run.relative_to(root).parts[0]
+        runs.setdefault(label, {})[int(run.name.removeprefix("seed-"))] = run_measures(run)
+    table: dict[str, Any] = {}
+    for label, by_seed in runs.items():
+        noise = [by_seed[seed]["late/noise_share"] for seed in sorted(by_seed)]
+        coverage = [by_seed[seed]["late/coverage_rest"] for seed in sorted(by_seed)]
+        row: dict[str, Any] = {
+            "seeds": sorted(by_seed),
+            "noise_share": noise,
+            "coverage_rest": coverage,
+            "noise_share_iqm": score_summary(noise),
+            "coverage_rest_iqm": score_summary(coverage),
+        }
+        for baseline in baselines:
+            if baseline == label or baseline not in runs:
+                continue
+            other = runs[baseline]
+            other_noise = [other[seed]["late/noise_share"] for seed in sorted(other)]
+            other_coverage = [other[seed]["late/coverage_rest"] for seed in sorted(other)]
+            row[f"P(less noise than {baseline})"] = probability_of_improvement(
+                [-v for v in noise], [-v for v in other_noise]
+            )
+            row[f"P(more coverage than {baseline})"] = probability_of_improvement(coverage, other_coverage)
+        table[label] = row
+    return table
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The command line: `method_table` of EXPERIMENT_DIR against the BASELINE labels, a line a method."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if not args:
+        usage = "usage: python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...]"
+        print(usage, file=sys.stderr)
+        return 2
+    for label, row in method_table(args[0], args[1:]).items():
+        print(json.dumps({"method": label, **row}))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -4,8 +4,9 @@ Issue 50, item 4: `core.envs.noisy_tv` measures one run (``late/noise_share``, `
 late half of training); this module gathers an experiment folder's finished runs by method and summarises them
 with `core.experiments.statistics` (it lives here, not beside the env, because envs sit below experiments).
 
-``python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...]``: one JSON line per method,
-compared with each BASELINE label (e.g. ``SAC SAC+RND``).
+``python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...] [--markdown]``: one JSON line per
+method, compared with each BASELINE label (e.g. ``SAC SAC+RND``); with ``--markdown``, the table rows
+docs/results.md prints (study 4).
 """
 
 from __future__ import annotations
@@ -62,14 +63,62 @@ def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> d
     return table
 
 
+MARKDOWN_HEADER = (
+    "| method | seeds | late noise share, per seed | IQM [95 % CI] | late coverage of the rest, per seed | "
+    "IQM [95 % CI] | P(less noise than SAC) | P(more coverage than SAC) | P(less noise than SAC+RND) | "
+    "P(more coverage than SAC+RND) |"
+)
+"""The header of `markdown_rows` with the baselines SAC and SAC+RND (docs/results.md, study 4)."""
+
+
+def markdown_rows(table: dict[str, Any], baselines: Sequence[str]) -> list[str]:
+    """One markdown row a method of `method_table`: seeds, per-seed values and IQM [CI] of both measures (3
+    decimals), then P [CI] (2 decimals) against each baseline in order, "–" where none."""
+
+    def three(value: float) -> str:
+        return f"{value:.3f}"
+
+    def summary(entry: dict[str, Any]) -> str:
+        return f"{three(entry['iqm'])} [{three(entry['ci'][0])}, {three(entry['ci'][1])}]"
+
+    def probability(row: dict[str, Any], key: str) -> str:
+        if key not in row:
+            return "–"
+        return f"{row[key]['p']:.2f} [{row[key]['ci'][0]:.2f}, {row[key]['ci'][1]:.2f}]"
+
+    lines = []
+    for label, row in table.items():
+        cells = [
+            label,
+            str(len(row["seeds"])),
+            " / ".join(map(three, row["noise_share"])),
+            summary(row["noise_share_iqm"]),
+            " / ".join(map(three, row["coverage_rest"])),
+            summary(row["coverage_rest_iqm"]),
+        ]
+        for baseline in baselines:
+            cells += [
+                probability(row, f"P(less noise than {baseline})"),
+                probability(row, f"P(more coverage than {baseline})"),
+            ]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """The command line: `method_table` of EXPERIMENT_DIR against the BASELINE labels, a line a method."""
     args = list(sys.argv[1:] if argv is None else argv)
     if not args:
-        usage = "usage: python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...]"
+        usage = "usage: python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...] [--markdown]"
         print(usage, file=sys.stderr)
         return 2
-    for label, row in method_table(args[0], args[1:]).items():
+    markdown = "--markdown" in args
+    args = [arg for arg in args if arg != "--markdown"]
+    table = method_table(args[0], args[1:])
+    if markdown:
+        print("\n".join(markdown_rows(table, args[1:])))
+        return 0
+    for label, row in table.items():
         print(json.dumps({"method": label, **row}))
     return 0
 

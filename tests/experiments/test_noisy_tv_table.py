@@ -40,3 +40,45 @@ def test_method_table_groups_runs_by_method_and_compares_each_with_the_baselines
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [line["method"] for line in lines] == ["aimed", "drawn"]  # not "running"
     assert main([]) == 2
+
+
+def test_study_4_noisy_tv_table_is_what_the_archive_gives():
+    """docs/results.md's study-4 noisy-TV table (and README's figures from it) are the command's output on
+    the archived grid."""
+    from pathlib import Path
+
+    from core.experiments.noisy_tv_table import MARKDOWN_HEADER, markdown_rows
+
+    root = Path(__file__).resolve().parents[2]
+    table = method_table(root / "results" / "study4-noisy-tv-tuning", ["SAC", "SAC+RND"])
+    assert sorted(table) == ["SAC", "SAC+IM2C", "SAC+IM2C-disagreement", "SAC+IM2C-progress", "SAC+RND"]
+    assert all(row["seeds"] == [100, 101, 102, 103, 104] for row in table.values())
+    progress = table["SAC+IM2C-progress"]
+    assert progress["noise_share"] == [0.0] * 5  # never at the noise
+    assert sum(v > 0.05 for v in table["SAC+RND"]["noise_share"]) == 4  # RND drawn to it in 4 of 5
+    published = (root / "docs" / "results.md").read_text()
+    assert MARKDOWN_HEADER in published
+    for line in markdown_rows(table, ["SAC", "SAC+RND"]):
+        assert line in published, line
+    readme = (root / "README.md").read_text()
+    assert "coverage 0.171 against SAC's 0.173, P(more coverage than SAC) 0.48 [0.12, 0.84]" in readme
+    assert f"{progress['coverage_rest_iqm']['iqm']:.3f}" == "0.171"
+
+
+def test_study_4_mountaincar_cells_reach_the_flag_where_the_docs_say():
+    import csv
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    first_flag = {}
+    for scale in ("0.1", "0.5"):
+        cell = root / "results" / "study4-mountaincar-tuning" / f"SAC+IM2C-progress-{scale}"
+        with (cell / "task" / "seed-100" / "metrics.csv").open(newline="") as file:
+            rows = list(csv.DictReader(file))
+        flags = [int(r["global_step"]) for r in rows if float(r["charts/episodic_return"]) > 0]
+        first_flag[scale] = flags[0]
+    assert first_flag == {"0.1": 2871, "0.5": 4747}
+    assert "both on seed 100, flag by env step 4 747" in (root / "README.md").read_text()
+    published = (root / "docs" / "results.md").read_text()
+    assert "| progress, c = 0.1, seed 100 | 2 871 |" in published
+    assert "| progress, c = 0.5, seed 100 | 4 747 |" in published

@@ -5,7 +5,7 @@ late half of training); this module gathers an experiment folder's finished runs
 with `core.experiments.statistics` (it lives here, not beside the env, because envs sit below experiments).
 
 ``python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...] [--markdown]``: one JSON line per
-method, compared with each BASELINE label (e.g. ``SAC SAC+RND``); with ``--markdown``, the table rows
+method, compared with each BASELINE label (e.g. ``SAC SAC+RND``); with ``--markdown``, the table
 docs/results.md prints (study 4).
 """
 
@@ -19,6 +19,9 @@ from typing import Any
 
 from core.envs.noisy_tv import run_measures
 from core.experiments.statistics import probability_of_improvement, score_summary
+
+MEASURES = ("noise_share", "coverage_rest")
+"""The late-half measures of `core.envs.noisy_tv.late_half_measures` a table reports (without ``late/``)."""
 
 
 def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> dict[str, Any]:
@@ -38,37 +41,41 @@ def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> d
             continue  # not a cell, or a cell still running (a run writes summary.json when it ends)
         label = run.relative_to(root).parts[0]
         runs.setdefault(label, {})[int(run.name.removeprefix("seed-"))] = run_measures(run)
+    per_seed = {  # each method's measures in seed order, gathered once
+        label: {key: [by_seed[seed][f"late/{key}"] for seed in sorted(by_seed)] for key in MEASURES}
+        for label, by_seed in runs.items()
+    }
     table: dict[str, Any] = {}
-    for label, by_seed in runs.items():
-        noise = [by_seed[seed]["late/noise_share"] for seed in sorted(by_seed)]
-        coverage = [by_seed[seed]["late/coverage_rest"] for seed in sorted(by_seed)]
+    for label, measures in per_seed.items():
+        noise, coverage = measures["noise_share"], measures["coverage_rest"]
         row: dict[str, Any] = {
-            "seeds": sorted(by_seed),
+            "seeds": sorted(runs[label]),
             "noise_share": noise,
             "coverage_rest": coverage,
             "noise_share_iqm": score_summary(noise),
             "coverage_rest_iqm": score_summary(coverage),
         }
         for baseline in baselines:
-            if baseline == label or baseline not in runs:
+            if baseline == label or baseline not in per_seed:
                 continue
-            other = runs[baseline]
-            other_noise = [other[seed]["late/noise_share"] for seed in sorted(other)]
-            other_coverage = [other[seed]["late/coverage_rest"] for seed in sorted(other)]
+            other = per_seed[baseline]
             row[f"P(less noise than {baseline})"] = probability_of_improvement(
-                [-v for v in noise], [-v for v in other_noise]
+                [-v for v in noise], [-v for v in other["noise_share"]]
             )
-            row[f"P(more coverage than {baseline})"] = probability_of_improvement(coverage, other_coverage)
+            row[f"P(more coverage than {baseline})"] = probability_of_improvement(
+                coverage, other["coverage_rest"]
+            )
         table[label] = row
     return table
 
 
-MARKDOWN_HEADER = (
-    "| method | seeds | late noise share, per seed | IQM [95 % CI] | late coverage of the rest, per seed | "
-    "IQM [95 % CI] | P(less noise than SAC) | P(more coverage than SAC) | P(less noise than SAC+RND) | "
-    "P(more coverage than SAC+RND) |"
-)
-"""The header of `markdown_rows` with the baselines SAC and SAC+RND (docs/results.md, study 4)."""
+def markdown_header(baselines: Sequence[str]) -> str:
+    """The header row of `markdown_rows` for these baselines (docs/results.md, study 4: SAC, SAC+RND)."""
+    columns = ["method", "seeds", "late noise share, per seed", "IQM [95 % CI]",
+               "late coverage of the rest, per seed", "IQM [95 % CI]"]
+    for baseline in baselines:
+        columns += [f"P(less noise than {baseline})", f"P(more coverage than {baseline})"]
+    return "| " + " | ".join(columns) + " |"
 
 
 def markdown_rows(table: dict[str, Any], baselines: Sequence[str]) -> list[str]:
@@ -116,7 +123,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = [arg for arg in args if arg != "--markdown"]
     table = method_table(args[0], args[1:])
     if markdown:
-        print("\n".join(markdown_rows(table, args[1:])))
+        header = markdown_header(args[1:])
+        separator = "|" + "---|" * (header.count(" | ") + 1)
+        print("\n".join([header, separator, *markdown_rows(table, args[1:])]))
         return 0
     for label, row in table.items():
         print(json.dumps({"method": label, **row}))

@@ -15,3 +15,19 @@ def test_study_4_mountaincar_rows_match_the_published_table():
     published = (ROOT / "docs" / "results.md").read_text()
     for row in rows:  # every row as docs/results.md prints it
         assert "| " + " | ".join(row.values()) + " |" in published
+
+
+def test_readme_study_4_mountaincar_figures_are_what_the_archive_holds():
+    import json
+
+    archive = ROOT / "results" / "study4-mountaincar-tuning"
+    by_cell = {(r["method"], r["seed"]): r for r in load_script("flag_table").flag_rows(archive)}
+    first_flag = {
+        c: by_cell[(f"SAC+IM2C-progress-{c}", "100")]["first flag (env step)"] for c in ("0.1", "0.5", "2")
+    }
+    assert first_flag == {"0.1": "2 871", "0.5": "4 747", "2": "18 972"}
+    readme = (ROOT / "README.md").read_text()
+    assert "reached the flag at all three values of c (first at env step 2 871)" in readme
+    sac = by_cell[("SAC", "100")]  # "SAC alone on the same seed never did in 50k steps"
+    assert (sac["first flag (env step)"], sac["training episodes at the flag"]) == ("–", "0 of 51")
+    assert json.loads((archive / "SAC" / "task" / "seed-100" / "summary.json").read_text())["steps"] >= 50_000

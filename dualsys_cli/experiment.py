@@ -194,6 +194,12 @@ def run_command(
         help="Archive the finished cells into TO/<name> (as `experiment archive --to TO`) at the start and "
         "as each cell finishes, so a machine lost mid-grid loses only the cells in flight.",
     ),
+    only: list[str] = typer.Option(
+        None,
+        "--only",
+        help="Run only this method's cells (its label; repeat for several): e.g. the baselines first, while "
+        "a method's design is still changing. The other cells are left as they are.",
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON line with the outcome."),
 ) -> None:
     """Run every unfinished cell of an experiment; again, to resume after an interruption."""
@@ -221,7 +227,12 @@ def run_command(
         try:
             with display:
                 result = run_experiment(
-                    spec, out, workers=workers, ray_address=ray, progress_callback=on_progress
+                    spec,
+                    out,
+                    workers=workers,
+                    ray_address=ray,
+                    only=only or None,
+                    progress_callback=on_progress,
                 )
         except KeyboardInterrupt:
             typer.secho(

@@ -8,7 +8,7 @@ ones resume from ``checkpoints/latest.pt``, so the same call after any interrupt
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -81,12 +81,23 @@ class ExperimentResult:
         }
 
 
-def plan_experiment(spec: ExperimentSpec, out: Path | str) -> ExperimentPlan:
+def plan_experiment(
+    spec: ExperimentSpec, out: Path | str, *, only: Collection[str] | None = None
+) -> ExperimentPlan:
     """Expand the cells and sort them by state; raises ExperimentError if a started cell's settings changed.
 
-    Writes nothing.
+    ``only``: method labels; the plan then holds those methods' cells alone (the rest of the grid is left as
+    it is, for a later call). Raises ExperimentError for a label the experiment does not have. Writes nothing.
     """
     cells = expand_cells(spec, out)
+    if only is not None:
+        labels = [method.label for method in spec.methods]
+        unknown = sorted(set(only) - set(labels))
+        if unknown:
+            raise ExperimentError(
+                f"bad value for --only: {', '.join(unknown)} (the methods are: {', '.join(labels)})"
+            )
+        cells = [cell for cell in cells if cell.label in set(only)]
     check_cells(cells)
     plan = ExperimentPlan(spec=spec, directory=experiment_dir(spec, out), cells=cells)
     for cell in cells:
@@ -102,10 +113,12 @@ def run_experiment(
     *,
     workers: int | None = None,
     ray_address: str | None = None,
+    only: Collection[str] | None = None,
     progress_callback: ProgressCallback | None = None,
     should_stop: Callable[[], bool] | None = None,
 ) -> ExperimentResult:
-    """Run every unfinished cell of ``spec`` under ``out/<name>/``.
+    """Run every unfinished cell of ``spec`` under ``out/<name>/`` (of the methods labelled ``only``, if
+    given: the result then speaks of those cells alone).
 
     ``workers``: local worker processes (default: the usable cores), or with ``ray_address`` the most Ray
     tasks in flight (default: the cluster's CPUs). ``progress_callback(progress)`` is called after every
@@ -113,7 +126,7 @@ def run_experiment(
     Ctrl-C does the same and re-raises KeyboardInterrupt once the workers have checkpointed.
     """
     started = time.monotonic()
-    plan = plan_experiment(spec, out)
+    plan = plan_experiment(spec, out, only=only)
     if ray_address is None:
         check_cpu_isas(plan.to_run)
     plan.directory.mkdir(parents=True, exist_ok=True)

@@ -107,6 +107,24 @@ def test_changed_settings_of_a_finished_cell_are_refused(tmp_path, write_experim
 
 
 @pytest.mark.timeout(SLOW_MACHINE_TIMEOUT_S)
+def test_only_runs_the_named_methods_cells_and_leaves_the_rest_for_later(tmp_path, write_experiment):
+    path = write_experiment(seeds=1)
+    out = tmp_path / "out"
+    unknown = CliRunner().invoke(app, ["experiment", "run", str(path), "--out", str(out), "--only", "PPO"])
+    assert unknown.exit_code == 2 and "--only: PPO (the methods are: DDPG, DDPG+IM2C)" in unknown.stderr
+    assert not (out / "tiny").exists()  # refused before anything was written
+    first = CliRunner().invoke(
+        app, ["experiment", "run", str(path), "--out", str(out), "--only", "DDPG", "--workers", "1", "--json"]
+    )
+    assert first.exit_code == 0, first.output
+    outcome = json.loads(first.stdout.strip().splitlines()[-1])
+    assert outcome["cells"] == 1 and outcome["done"] == ["DDPG/dense/seed-0"] and outcome["complete"]
+    assert cell_state(out / "tiny" / "DDPG+IM2C" / "dense" / "seed-0") == "new"
+    rest = run_experiment(load_experiment(path), out, workers=1)
+    assert rest.skipped == ["DDPG/dense/seed-0"] and rest.done == ["DDPG+IM2C/dense/seed-0"]
+
+
+@pytest.mark.timeout(SLOW_MACHINE_TIMEOUT_S)
 def test_a_killed_worker_leaves_its_cell_resumable_with_a_continuous_metrics_csv(tmp_path, write_experiment):
     overrides = {**tiny_experiment_data()["overrides"], "run.checkpoint_every": 5}
     spec = load_experiment(

@@ -83,13 +83,13 @@ class MetaController:
             rollout = self.rollout(phi, node, actor)
             if rollout.depth > 0:
                 cfg = self.config
-                aim = self.world.aim_goal(self.planner.aim, node)
+                aim = self.world.aim_goal(self.planner.aim, node, phi)
                 plan = optimise_plan(phi, rollout, self.world.bank, self.planner, steps=cfg.plan_steps,
                                      lr=cfg.plan_lr, r_star=cfg.r_star, aim=aim,
                                      aim_scale=cfg.intrinsic_scale)
                 return MetaDecision(action=plan.action, model_based=True, rollout=rollout, plan=plan)
         if self.planner.aim != "none" and self.fixed_horizon is None:
-            aim = self.world.aim_goal(self.planner.aim, node)
+            aim = self.world.aim_goal(self.planner.aim, node, phi)
             if aim is not None and aim.goal is not None and aim.action_map is not None:
                 cfg = self.config
                 plan = steer_plan(phi, actor, aim, self.planner, horizon=cfg.d_max, steps=cfg.plan_steps,

@@ -23,8 +23,9 @@ constants are `HeldOut`.
   ½ Σ (1 − r̂)², otherwise paper; repaired — (R* − Σ r̂)², normalised steps, every plan action clipped;
   progress — the predicted return plus c · the learning progress of the regions the plan reaches, maximised,
   steps and clip as repaired, and where the models are not trusted the plan steered toward that goal alone;
-  novelty — the same with the regions' prediction error instead of progress; disagreement — with an
-  ensemble's variance.
+  a fifth of its goals babbled past the map's edge (`core.dual.goal_babbling`); novelty — the same with the
+  regions' prediction error instead of progress; disagreement — with an ensemble's variance; babbling — the
+  progress planner with only its babbled goals.
 - imagination (`Imagination`): paper (= the released code) — the act-time rollout in B_latent, all kept, no
   termination head; repaired — learn-time rollouts, the no-change gate, a termination head;
   repaired_no_termination — repaired without the head, the one combination a shipped experiment ran that is
@@ -183,6 +184,15 @@ class Planner:
     optimiser: Literal["sgd", "normalised"]
     clip: Literal["executed", "every_step"]
     aim: Literal["none", "progress", "novelty", "disagreement"] = "none"
+    goals: Literal["aim", "aim_and_babbled", "babbled"] = "aim"
+    """Where the pull points (`core.dual.goal_babbling`): the aim's goal alone; the aim's goal with a share of
+    goals drawn uniformly past the map's edge in its place; or only those babbled goals (none in between:
+    the actor acts), with the aim's contrast as the pull's length."""
+
+    @property
+    def babbles(self) -> bool:
+        """Whether some goals are babbled past the map's edge."""
+        return self.goals != "aim"
 
 
 @dataclass(frozen=True)
@@ -236,14 +246,19 @@ PLANNER: dict[str, Planner] = {
     "paper": Planner(objective="sum", optimiser="sgd", clip="executed"),
     "released": Planner(objective="per_step", optimiser="sgd", clip="executed"),
     "repaired": Planner(objective="sum", optimiser="normalised", clip="every_step"),
-    "progress": Planner(objective="return", optimiser="normalised", clip="every_step", aim="progress"),
-    "novelty": Planner(objective="return", optimiser="normalised", clip="every_step", aim="novelty"),
+    "progress": Planner(objective="return", optimiser="normalised", clip="every_step", aim="progress",
+                        goals="aim_and_babbled"),
+    "novelty": Planner(objective="return", optimiser="normalised", clip="every_step", aim="novelty",
+                       goals="aim_and_babbled"),
     "disagreement": Planner(objective="return", optimiser="normalised", clip="every_step",
-                            aim="disagreement"),
+                            aim="disagreement", goals="aim_and_babbled"),
+    "babbling": Planner(objective="return", optimiser="normalised", clip="every_step", aim="progress",
+                        goals="babbled"),
 }
 """``progress`` and ``novelty`` are no reading of the text or the code: planners that aim before the first
 reward (issue 50; docs/dual-system.md, "A planner that aims"). ``novelty`` is the ablation that replaces
-learning progress by prediction error; ``disagreement`` the peer that aims at the models' uncertainty."""
+learning progress by prediction error; ``disagreement`` the peer that aims at the models' uncertainty;
+``babbling`` the ablation that removes the progress goal and keeps the babbled ones."""
 IMAGINATION: dict[str, Imagination] = {
     "paper": Imagination(source="act_time", gate="none", termination=False),
     "repaired": Imagination(source="learn_time", gate="no_change_ratio", termination=True),

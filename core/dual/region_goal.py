@@ -48,6 +48,8 @@ learnable third far more than the field did.
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from core.dual.action_map import ActionMap
@@ -82,6 +84,16 @@ class RegionGoal:
         peak = self.smoothed == self.smoothed.max() if count else np.zeros(0, dtype=bool)
         self.goal = self.centres[peak].mean(axis=0) if self.weight > 0.0 else None
         """ḡ in map coordinates, the mean of the tied peaks (None: no aim)."""
+
+    def redirected(self, goal: np.ndarray | None) -> RegionGoal:
+        """The same pull (length w, action map, values) toward another point ``goal`` of the map's coordinates
+        (`core.dual.goal_babbling`), or with no goal (None: no pull); ``self`` unchanged."""
+        if self.goal is None:
+            raise ValueError("no aim to redirect (no contrast among the values)")
+        other = copy.copy(self)
+        dims = self.centres.shape[1]
+        other.goal = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(dims)
+        return other
 
     def __call__(self, latents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """g of each row of ``latents [H, d]`` (``[H]``) and its gradient w.r.t. the latent (``[H, d]``)."""

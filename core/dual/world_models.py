@@ -46,6 +46,7 @@ from core.config import DualConfig
 from core.dual.action_map import ActionMap, fit_action_map
 from core.dual.capacity import grown_capacity
 from core.dual.disagreement import EnsembleDisagreement
+from core.dual.goal_babbling import GoalBabbling
 from core.dual.itm import InstantaneousTopologicalMap, ItmEvents
 from core.dual.itm_resolution import LatentScale, RelativeResolution
 from core.dual.lagged_progress import LaggedProgress
@@ -150,6 +151,10 @@ class LocalWorldModels:
                              if read.planner.aim == "disagreement" else None)
         """Per-node ensemble disagreement, what the ``disagreement`` planner aims at
         (`core.dual.disagreement`)."""
+        self.goal_babbling = (GoalBabbling(seed=int(self.bank.generator.initial_seed()) + 2,
+                                           only=read.planner.goals == "babbled")
+                              if read.planner.babbles and self.itm is not None else None)
+        """The aiming planner's babbled goals past the map's edge (`core.dual.goal_babbling`)."""
         self.unit = LatentScale(latent_dim, horizon=MODEL_SCALE_HORIZON)
         """The latent's running mean and RMS spread over a longer horizon (`LatentScale`): the local models'
         units (``world_models = repaired``) and the repaired r_int's unit."""
@@ -323,20 +328,28 @@ class LocalWorldModels:
         unit = self.unit.scale**2 if self.readings.reliability.squared else self.unit.scale
         return self.config.intrinsic_scale * self.heldout.progress_of(regions) / unit
 
-    def aim_goal(self, aim: str, node: int | None = None) -> RegionGoal | None:
+    def aim_goal(self, aim: str, node: int | None = None,
+                 phi: torch.Tensor | None = None) -> RegionGoal | None:
         """The planner's aim (``dual.planner``'s `Planner.aim`) as a goal on the map: one value per live
         region (`aim_values`) at the region's node in the map's coordinates, the goal where those values,
         averaged over the map's neighbours, peak (`RegionGoal`). With ``node``, the plan's start node, the
-        goal carries that node's action map (`action_map`), through which a plan's pull is predicted. None
-        without a map, before its first state, or no aim."""
+        goal carries that node's action map (`action_map`), through which a plan's pull is predicted. With
+        ``phi``, the latent a decision is made at (one call per decision: `MetaController`), a reading that
+        babbles may redirect the goal past the map's edge (`GoalBabbling.choose`). None without a map, before
+        its first state, or no aim."""
         if aim == "none" or self.itm is None or not self.itm.initialised:
             return None
         regions = self.itm.alive_ids()
         map_unit = None if self.scale is None else float(self.scale.scale)
         action_map = None if node is None else self.action_map(node)
         values = self.aim_values(aim, regions)
-        return RegionGoal(self.itm.weights(regions), values, unit=map_unit, action_map=action_map,
+        goal = RegionGoal(self.itm.weights(regions), values, unit=map_unit, action_map=action_map,
                           adjacency=self.itm.adjacency(regions))
+        if phi is None or self.goal_babbling is None:
+            return goal
+        resolution = self.itm.e_max if self.itm.distance == "l2" else float(np.sqrt(self.itm.e_max))
+        u = phi.detach().double().reshape(-1).numpy() / goal.unit
+        return self.goal_babbling.choose(goal, u, resolution)
 
     def aim_values(self, aim: str, regions: np.ndarray) -> np.ndarray:
         """Each region's value for an aim: `LaggedProgress.progress` (progress),
@@ -460,6 +473,8 @@ class LocalWorldModels:
             state["lagged_progress"] = self.lagged_progress.state_dict()
         if self.disagreement is not None:
             state["disagreement"] = self.disagreement.state_dict()
+        if self.goal_babbling is not None:
+            state["goal_babbling"] = self.goal_babbling.state_dict()
         state["generator"] = {"state": self.bank.generator.get_state()}
         state["unit"] = self.unit.state_dict()
         return state
@@ -484,6 +499,8 @@ class LocalWorldModels:
             self.lagged_progress.load_state_dict(state["lagged_progress"])
         if self.disagreement is not None:
             self.disagreement.load_state_dict(state["disagreement"])
+        if self.goal_babbling is not None and "goal_babbling" in state:  # absent: a checkpoint from before it
+            self.goal_babbling.load_state_dict(state["goal_babbling"])
         self.bank.generator.set_state(state["generator"]["state"])
 
 

@@ -50,6 +50,7 @@ from core.config import DualConfig
 from core.dual.meta_controller import MetaController
 from core.dual.readings import resolve
 from core.dual.world_models import LocalWorldModels
+from core.envs.noisy_tv import NoisyTVEnv, late_half_measures
 from core.envs.three_regions import REGIONS, ThreeRegionsEnv, region_of
 
 CHECK_ENV = {"frequency": 1.0, "action_gain": 1.0, "layout": ("learnable", "trivial", "noise")}
@@ -107,12 +108,11 @@ class OracleAimWorld(LocalWorldModels):
         return (_thirds(centres, unit) == REGIONS.index("learnable")).astype(np.float64)
 
 
-def visits(dual: DualConfig | None, steps: int, seed: int, oracle: str | None = None,
-           episode: int = EPISODE) -> tuple[np.ndarray, np.ndarray]:
-    """Region index of every step's new position, and whether the planner chose the step's action: the
-    planner of ``dual`` (None: the random walk); with ``oracle`` = ``gated`` or ``everywhere``, aiming at the
-    truth (`OracleAimWorld`). Episodes of ``episode`` steps, each from a uniform start."""
-    env = check_env(min(steps, episode))
+def _drive(env: ThreeRegionsEnv, dual: DualConfig | None, steps: int, seed: int, oracle: str | None = None,
+           ) -> Iterator[tuple[np.ndarray, dict, bool]]:
+    """Run ``steps`` steps on ``env`` (reset whenever an episode ends): the planner of ``dual`` (None: the
+    random walk), with ``oracle`` = ``gated`` or ``everywhere`` aiming at the truth (`OracleAimWorld`); yield
+    each step's new observation, its info and whether the planner chose its action."""
     rng = np.random.default_rng(seed)
     obs, _ = env.reset(seed=seed)
     world = meta = None
@@ -124,27 +124,58 @@ def visits(dual: DualConfig | None, steps: int, seed: int, oracle: str | None = 
             world = OracleAimWorld(dual, 3, 2, generator=generator, readings=resolve(dual),
                                    plan_everywhere=oracle == "everywhere")
         meta = MetaController(world, dual)
-    regions = np.zeros(steps, dtype=np.int64)
-    planned = np.zeros(steps, dtype=bool)
     actor = _random_actor(rng)
-    for step in range(steps):
+    for _ in range(steps):
         phi = torch.from_numpy(obs.astype(np.float32))
         action = rng.uniform(-1.0, 1.0, size=2)
+        planned = False
         if world is not None and meta is not None:
             node = world.observe_state(phi)
             decision = meta.decide(phi, node, actor)
             if decision.model_based:
-                planned[step] = True
+                planned = True
                 action = decision.action.numpy().astype(np.float64)
-        nxt, _, terminated, truncated, _ = env.step(action.astype(np.float32))
+        nxt, _, terminated, truncated, info = env.step(action.astype(np.float32))
         if world is not None:
             world.learn_transition(node, phi, torch.from_numpy(action.astype(np.float32)), 0.0,
                                    torch.from_numpy(nxt.astype(np.float32)))
-        regions[step] = int(env.region_at(nxt[0]))
+        yield nxt, info, planned
         obs = nxt
         if terminated or truncated:
             obs, _ = env.reset()
+
+
+def visits(dual: DualConfig | None, steps: int, seed: int, oracle: str | None = None,
+           episode: int = EPISODE) -> tuple[np.ndarray, np.ndarray]:
+    """Region index of every step's new position, and whether the planner chose the step's action: the
+    planner of ``dual`` (None: the random walk); with ``oracle`` = ``gated`` or ``everywhere``, aiming at the
+    truth (`OracleAimWorld`). Episodes of ``episode`` steps, each from a uniform start."""
+    env = check_env(min(steps, episode))
+    regions = np.zeros(steps, dtype=np.int64)
+    planned = np.zeros(steps, dtype=bool)
+    for step, (nxt, _, chose) in enumerate(_drive(env, dual, steps, seed, oracle)):
+        regions[step], planned[step] = int(env.region_at(nxt[0])), chose
     return regions, planned
+
+
+def fixed_start_measures(dual: DualConfig | None, steps: int, seed: int) -> dict[str, float]:
+    """The noisy TV's measures of one run of the planner of ``dual`` (None: the random walk) on
+    `NoisyTVEnv` itself — 200-step episodes from the fixed start (−0.9, 0), the default layout (trivial |
+    learnable | noise), no reward, no learner beside the planner: ``late/coverage_rest`` and
+    ``late/noise_share`` of the episodes that start in the second half of ``steps`` (`late_half_measures`,
+    the loop's measure), and ``planned``, the share of steps the planner chose. The check of item 19 of
+    docs/dual-system.md: with a fixed start the map grows only where the planner has been."""
+    env = NoisyTVEnv()
+    rows: list[dict[str, float]] = []
+    planned = length = 0
+    for step, (_, info, chose) in enumerate(_drive(env, dual, steps, seed), start=1):
+        planned, length = planned + chose, length + 1
+        if "episode_diagnostics" in info:
+            rows.append({"global_step": step, "charts/length": length, **info["episode_diagnostics"]})
+            length = 0
+    measures = late_half_measures(rows, budget=steps)
+    return {"coverage_rest": round(measures["late/coverage_rest"], 4),
+            "noise_share": round(measures["late/noise_share"], 4), "planned": round(planned / steps, 4)}
 
 
 def _shares(visited: tuple[np.ndarray, np.ndarray]) -> dict[str, float]:
@@ -309,6 +340,35 @@ def planner_aim_check(dual: DualConfig, steps: int = 12000, seeds: int = 3, firs
     return _run_planners(runs, steps, range(first_seed, first_seed + seeds), per_seed)
 
 
+FIXED_START_PAIRED = ("coverage_rest", "noise_share")
+"""The fixed-start check's measures, each compared with the random walk of the same seed."""
+
+
+def fixed_start_check(dual: DualConfig, steps: int = 20000, seeds: Sequence[int] = range(100, 105),
+                      planners: Sequence[str] = AIMS,
+                      per_seed: list[dict[str, object]] | None = None) -> dict[str, float]:
+    """`fixed_start_measures` of each aiming planner (``planners``, `dual.planner` readings) and the random
+    walk, averaged over ``seeds`` (``<planner>_<measure>``), with each planner's mean paired difference to
+    the walk of the same seed (``…_minus_walk``) and its exact sign-flip p (``…_p``); ``per_seed`` collects
+    one row per planner and seed."""
+    configs = {name: dataclasses.replace(dual, planner=name) for name in planners}
+    runs = {name: [fixed_start_measures(configs.get(name), steps, seed) for seed in seeds]
+            for name in (*planners, "random_walk")}
+    out: dict[str, float] = {}
+    for name, rows in runs.items():
+        out.update({f"{name}_{key}": round(float(np.mean([row[key] for row in rows])), 4) for key in rows[0]})
+        if per_seed is not None:
+            per_seed.extend({"planner": name, "seed": seed, **row}
+                            for seed, row in zip(seeds, rows, strict=True))
+        if name == "random_walk":
+            continue
+        for key in FIXED_START_PAIRED:
+            differences = [row[key] - walk[key] for row, walk in zip(rows, runs["random_walk"], strict=True)]
+            out[f"{name}_{key}_minus_walk"] = round(float(np.mean(differences)), 4)
+            out[f"{name}_{key}_p"] = round(exact_sign_flip_p(differences), 3)
+    return out
+
+
 def aim_signal_summary(dual: DualConfig, seeds: Sequence[int], steps: int = 9000,
                        every: int = 1000) -> list[dict[str, object]]:
     """`aim_signals` over ``seeds``: per (step, aim), each third's mean value over seeds and ``top``, how many
@@ -338,12 +398,16 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     parser = argparse.ArgumentParser(prog="python -m core.dual.checks.planner_aim",
                                      description=(__doc__ or "").split("\n")[0])
-    parser.add_argument("what", choices=("learnability", "signals", "check", "machinery"),
+    parser.add_argument("what", choices=("learnability", "signals", "check", "machinery", "fixed"),
                         help="the models' error ratio per third, the aims' values per third, the planners' "
-                             "shares, or the oracle aim's")
+                             "shares, the oracle aim's, or the planners' noisy-TV measures from its fixed "
+                             "start")
+    parser.add_argument("--planners", default=",".join(AIMS),
+                        help="fixed: the dual.planner readings to run beside the walk (comma-separated)")
     parser.add_argument("--seeds", type=_seed_range, default=_seed_range("100-104"), help="e.g. 100-104")
     parser.add_argument("--steps", type=int, default=None,
-                        help="6000 (learnability), 9000 (signals), 8000 (check) or 6000 (machinery)")
+                        help="6000 (learnability), 9000 (signals), 8000 (check), 6000 (machinery) or 20000 "
+                             "(fixed)")
     parser.add_argument("--per-seed", action="store_true",
                         help="check, machinery: also print one JSON line per planner and seed")
     args = parser.parse_args(argv)
@@ -353,6 +417,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         for seed in args.seeds:
             for row in learnability(dual, steps=args.steps or 6000, seed=seed):
                 print(json.dumps({"seed": seed, **row}))
+    elif args.what == "fixed":
+        per_seed: list[dict[str, object]] = []
+        figures = fixed_start_check(dual, steps=args.steps or 20000, seeds=args.seeds,
+                                    planners=args.planners.split(","), per_seed=per_seed)
+        for row in per_seed if args.per_seed else []:
+            print(json.dumps(row))
+        print(json.dumps(figures))
     elif args.what == "signals":
         for row in aim_signal_summary(dual, args.seeds, steps=args.steps or 9000):
             print(json.dumps(row))

@@ -4,7 +4,7 @@ returned ≥ 90, the final greedy return and how many training episodes reached 
 Study 4's tuning grid (issue 50) has too few seeds per method for the report's IQMs while it runs; this prints
 what each finished cell did, one Markdown row a cell, by seed and then by method name:
 
-    python scripts/flag_table.py results/study4-mountaincar-tuning
+    python scripts/flag_table.py results/study4-mountaincar-tuning-63a3ecb
 """
 
 from __future__ import annotations

@@ -6,6 +6,7 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
 import torch
 
 from core.config import load_config
@@ -85,3 +86,27 @@ def test_machinery_check_reports_shares_and_paired_comparisons_with_the_walk_of_
         assert abs(out[f"oracle_everywhere_{key}_minus_walk"] - expected) < 1e-3
         assert 0.0 < out[f"oracle_everywhere_{key}_p"] <= 1.0
     assert out["oracle_everywhere_planned"] == 1.0 and out["random_walk_planned"] == 0.0
+
+
+def test_the_fixed_start_check_scores_the_noisy_tv_measure_against_the_walk():
+    """`fixed_start_check`: each planner alone on the noisy TV from its fixed start, scored with the loop's
+    late-half measure (`late_half_measures` on the episodes' own cell masks), beside the random walk of the
+    same seed with paired differences; the walk never plans, an aiming planner does."""
+    from core.dual.checks.planner_aim import fixed_start_check, fixed_start_measures
+    from core.envs.noisy_tv import REST_CELLS
+
+    walk = fixed_start_measures(None, steps=400, seed=100)  # two episodes: the late half is the second
+    assert walk["planned"] == 0.0
+    assert 1 / REST_CELLS <= walk["coverage_rest"] < 0.5  # the start cell at least; 200 steps cover little
+    per_seed: list[dict[str, object]] = []
+    figures = fixed_start_check(load_config("default").dual, steps=400, seeds=[100, 101],
+                                planners=["babbling"], per_seed=per_seed)
+    assert [(row["planner"], row["seed"]) for row in per_seed] == [
+        ("babbling", 100), ("babbling", 101), ("random_walk", 100), ("random_walk", 101)]
+    assert figures["random_walk_coverage_rest"] == pytest.approx(
+        np.mean([row["coverage_rest"] for row in per_seed if row["planner"] == "random_walk"]), abs=1e-4)
+    walk_100 = next(row for row in per_seed if row["planner"] == "random_walk" and row["seed"] == 100)
+    assert walk_100["coverage_rest"] == walk["coverage_rest"]  # the same seed, the same walk
+    differences = [b["coverage_rest"] - w["coverage_rest"] for b, w in zip(per_seed[:2], per_seed[2:], strict=True)]
+    assert figures["babbling_coverage_rest_minus_walk"] == pytest.approx(np.mean(differences), abs=1e-4)
+    assert 0.0 < figures["babbling_planned"] <= 1.0 and figures["babbling_coverage_rest_p"] <= 1.0

@@ -50,7 +50,7 @@ def test_study_4_noisy_tv_table_is_what_the_archive_gives():
     from core.experiments.noisy_tv_table import markdown_header, markdown_rows
 
     root = Path(__file__).resolve().parents[2]
-    table = method_table(root / "results" / "study4-noisy-tv-tuning", ["SAC", "SAC+RND"])
+    table = method_table(root / "results" / "study4-noisy-tv-tuning-63a3ecb", ["SAC", "SAC+RND"])
     assert sorted(table) == ["SAC", "SAC+IM2C", "SAC+IM2C-disagreement", "SAC+IM2C-progress", "SAC+RND"]
     assert all(row["seeds"] == [100, 101, 102, 103, 104] for row in table.values())
     progress = table["SAC+IM2C-progress"]

@@ -7,7 +7,7 @@ from tests.utils.scripts import ROOT, load_script
 
 
 def test_study_4_mountaincar_rows_match_the_published_table():
-    rows = load_script("flag_table").flag_rows(ROOT / "results" / "study4-mountaincar-tuning")
+    rows = load_script("flag_table").flag_rows(ROOT / "results" / "study4-mountaincar-tuning-63a3ecb")
     by_cell = {(r["method"], r["seed"]): r for r in rows}
     progress = by_cell[("SAC+IM2C-progress-0.1", "100")]
     assert (progress["first flag (env step)"], progress["first greedy ≥ 90 (env step)"]) == ("2 871", "8 519")
@@ -20,7 +20,7 @@ def test_study_4_mountaincar_rows_match_the_published_table():
 def test_readme_study_4_mountaincar_figures_are_what_the_archive_holds():
     import json
 
-    archive = ROOT / "results" / "study4-mountaincar-tuning"
+    archive = ROOT / "results" / "study4-mountaincar-tuning-63a3ecb"
     by_cell = {(r["method"], r["seed"]): r for r in load_script("flag_table").flag_rows(archive)}
     first_flag = {
         c: by_cell[(f"SAC+IM2C-progress-{c}", "100")]["first flag (env step)"] for c in ("0.1", "0.5", "2")

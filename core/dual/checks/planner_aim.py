@@ -34,6 +34,14 @@ each third. ``python -m core.dual.checks.planner_aim signals --seeds 100-104`` p
 lines; ``… check --seeds 100-109`` the shares above; ``… machinery --seeds 100-109`` the same planner
 aiming at the truth (`OracleAimWorld`: 1 on the learnable third's nodes), gated by arbitration and planning
 everywhere — whether the planner can use an aim at all, apart from any signal.
+
+`fixed_start_check` asks what the uniform starts above cannot (docs/dual-system.md, items 19-20): the planners
+alone on the noisy TV itself (`core.envs.noisy_tv.NoisyTVEnv`: 200-step episodes from the fixed start (−0.9,
+0), the default layout), scored with the loop's measure — late-half coverage of the cells outside the noise
+and late-half noise share (`late_half_measures`) — against the random walk of the same seed. From a fixed
+start the map grows only where the planner has been, so an aim that can only point at the map's nodes keeps it
+at home.
+``… fixed --seeds 105-109 --planners progress,babbling --per-seed`` prints it.
 """
 
 from __future__ import annotations

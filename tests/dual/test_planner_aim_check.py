@@ -107,6 +107,7 @@ def test_the_fixed_start_check_scores_the_noisy_tv_measure_against_the_walk():
         np.mean([row["coverage_rest"] for row in per_seed if row["planner"] == "random_walk"]), abs=1e-4)
     walk_100 = next(row for row in per_seed if row["planner"] == "random_walk" and row["seed"] == 100)
     assert walk_100["coverage_rest"] == walk["coverage_rest"]  # the same seed, the same walk
-    differences = [b["coverage_rest"] - w["coverage_rest"] for b, w in zip(per_seed[:2], per_seed[2:], strict=True)]
+    pairs = zip(per_seed[:2], per_seed[2:], strict=True)
+    differences = [b["coverage_rest"] - w["coverage_rest"] for b, w in pairs]
     assert figures["babbling_coverage_rest_minus_walk"] == pytest.approx(np.mean(differences), abs=1e-4)
     assert 0.0 < figures["babbling_planned"] <= 1.0 and figures["babbling_coverage_rest_p"] <= 1.0

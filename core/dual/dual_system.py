@@ -18,8 +18,10 @@ the model error is read against), ``mb_decisions`` / ``mf_decisions`` (counts; m
 ``region_rint_std`` (the r_int signal of the live regions at the episode's end: its mean, a cost or bonus per
 step, and its spread, its dependence on the region), ``plan_loss_drop`` (mean L_plan decrease over the K MPC
 steps), ``plan_action_shift`` (mean max-abs difference between the executed MPC action and the actor's
-μ(φ_t)), and with ``dual.refit_every`` set, ``refit_error`` (mean Eq. 8 error of the refit batches before the
-step).
+μ(φ_t)), with ``dual.refit_every`` set, ``refit_error`` (mean Eq. 8 error of the refit batches before the
+step), and with an aiming planner, ``aimed_decisions`` (decisions whose plan was pulled toward a goal),
+``babbled_decisions`` (those whose goal was babbled past the map's edge, `core.dual.goal_babbling`) and
+``aim_contrast`` (the mean pull length w of the aimed decisions, before the scale c).
 """
 
 from __future__ import annotations
@@ -65,6 +67,8 @@ class EpisodeCounters:
         self.refit_errors: list[float] = []
         self.mb_decisions = 0
         self.steered = 0
+        self.aim_weights: list[float] = []
+        self.babbled = 0
         self.mf_decisions = 0
         self.imagined = 0
 
@@ -119,6 +123,9 @@ class DualSystem:
             self._count_model_free()
             return actor(phi)[0].numpy(), None
         decision = self.meta.decide(phi, node, actor)
+        if decision.aim is not None:
+            self.counters.aim_weights.append(decision.aim.weight)
+            self.counters.babbled += int(decision.aim.babbled)
         if decision.steered:  # by the aim alone: no rollout, nothing to imagine
             self.counters.mb_decisions += 1
             self.counters.steered += 1
@@ -226,6 +233,10 @@ class DualSystem:
         }
         if self.config.refit_every:
             out["dual/refit_error"] = mean_or_nan(c.refit_errors)
+        if self.meta is not None and self.meta.planner.aim != "none":
+            out["dual/aimed_decisions"] = float(len(c.aim_weights))
+            out["dual/babbled_decisions"] = float(c.babbled)
+            out["dual/aim_contrast"] = mean_or_nan(c.aim_weights)
         self.counters = EpisodeCounters()
         return out
 

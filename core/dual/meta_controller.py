@@ -32,6 +32,7 @@ import torch
 
 from core.config import DualConfig
 from core.dual.planning import ActorFn, PlanResult, Rollout, model_rollout, optimise_plan, steer_plan
+from core.dual.region_goal import RegionGoal
 from core.dual.world_models import LocalWorldModels
 
 
@@ -45,6 +46,8 @@ class MetaDecision:
     rollout: Rollout | None = None
     """The model rollout (adaptive or fixed length) when model-based; its rows are imagined transitions."""
     plan: PlanResult | None = None
+    aim: RegionGoal | None = None
+    """The aiming planner's goal the plan was pulled toward (None: no aim entered the plan)."""
 
     @property
     def steered(self) -> bool:
@@ -87,12 +90,13 @@ class MetaController:
                 plan = optimise_plan(phi, rollout, self.world.bank, self.planner, steps=cfg.plan_steps,
                                      lr=cfg.plan_lr, r_star=cfg.r_star, aim=aim,
                                      aim_scale=cfg.intrinsic_scale)
-                return MetaDecision(action=plan.action, model_based=True, rollout=rollout, plan=plan)
+                return MetaDecision(action=plan.action, model_based=True, rollout=rollout, plan=plan,
+                                    aim=aim if aim is not None and aim.goal is not None else None)
         if self.planner.aim != "none" and self.fixed_horizon is None:
             aim = self.world.aim_goal(self.planner.aim, node, phi)
             if aim is not None and aim.goal is not None and aim.action_map is not None:
                 cfg = self.config
                 plan = steer_plan(phi, actor, aim, self.planner, horizon=cfg.d_max, steps=cfg.plan_steps,
                                   lr=cfg.plan_lr)
-                return MetaDecision(action=plan.action, model_based=True, plan=plan)
+                return MetaDecision(action=plan.action, model_based=True, plan=plan, aim=aim)
         return MetaDecision(action=actor(phi)[0], model_based=False)

@@ -84,6 +84,8 @@ class RegionGoal:
         peak = self.smoothed == self.smoothed.max() if count else np.zeros(0, dtype=bool)
         self.goal = self.centres[peak].mean(axis=0) if self.weight > 0.0 else None
         """ḡ in map coordinates, the mean of the tied peaks (None: no aim)."""
+        self.babbled = False
+        """Whether the goal was babbled past the map's edge (`redirected`), not the values' peak."""
 
     def redirected(self, goal: np.ndarray | None) -> RegionGoal:
         """The same pull (length w, action map, values) toward another point ``goal`` of the map's coordinates
@@ -91,6 +93,7 @@ class RegionGoal:
         if self.goal is None:
             raise ValueError("no aim to redirect (no contrast among the values)")
         other = copy.copy(self)
+        other.babbled = goal is not None
         dims = self.centres.shape[1]
         other.goal = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(dims)
         return other

@@ -98,3 +98,25 @@ def test_the_aiming_readings_babble_through_the_world_and_the_others_do_not():
     world.goal_babbling.decisions = 0
     world.load_state_dict(state)
     assert world.goal_babbling.decisions == 1
+
+
+def test_a_trained_aiming_run_reports_its_aimed_and_babbled_decisions(tmp_path):
+    """The loop's diagnostics of an aiming planner: ``dual/aimed_decisions``, ``dual/babbled_decisions`` (a
+    part of them) and ``dual/aim_contrast`` (the mean pull length w) per episode; a planner without an aim
+    writes none of them."""
+    from core.config import load_config
+    from core.runs.run_dir import MetricsCSV
+    from core.runs.trainer import train
+
+    common = ["env.id=dualsys/NoisyTV-v0", "run.algo=im2c", "agent.ac=sac", "run.steps=1200",
+              "run.episodes=none", "run.eval_every=0", "run.final_eval=false", "agent.learning_starts=100"]
+    train(load_config("vector", [*common, "dual.planner=progress"]), tmp_path / "aims", command="test")
+    rows = MetricsCSV(tmp_path / "aims" / "metrics.csv").rows
+    aimed = [float(row["dual/aimed_decisions"]) for row in rows]
+    babbled = [float(row["dual/babbled_decisions"]) for row in rows]
+    assert sum(aimed) > 0 and 0 < sum(babbled) < sum(aimed)
+    assert all(b <= a <= 200 for a, b in zip(aimed, babbled, strict=True))
+    contrasts = [float(row["dual/aim_contrast"]) for row in rows if float(row["dual/aimed_decisions"]) > 0]
+    assert all(0.0 < w <= 1.0 for w in contrasts)
+    train(load_config("vector", [*common, "dual.planner=repaired"]), tmp_path / "plain", command="test")
+    assert "dual/aimed_decisions" not in MetricsCSV(tmp_path / "plain" / "metrics.csv").rows[0]

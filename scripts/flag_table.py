@@ -15,6 +15,8 @@ from pathlib import Path
 
 import typer
 
+from core.experiments.cells import cell_state
+
 COLUMNS = (
     "method", "seed", "first flag (env step)", "first greedy ≥ 90 (env step)",
     "final greedy return (10 episodes)", "training episodes at the flag",
@@ -30,10 +32,11 @@ def _step(value: int | None) -> str:
 
 
 def flag_rows(experiment_dir: Path) -> list[dict[str, str]]:
-    """The rows of every finished cell (one with summary.json) under ``experiment_dir``. A training episode
-    reached the flag when its return is positive (the +100 outweighs any action cost of 999 steps)."""
+    """The rows of every finished cell under ``experiment_dir`` (done as the runner counts it: a summary.json
+    of a run that was not stopped; a stopped cell, which resumes, is left out). A training episode reached the
+    flag when its return is positive (the +100 outweighs any action cost of 999 steps)."""
     rows = []
-    cells = [cell for cell in Path(experiment_dir).glob("*/*/seed-*") if (cell / "summary.json").exists()]
+    cells = [cell for cell in Path(experiment_dir).glob("*/*/seed-*") if cell_state(cell) == "done"]
     for cell in sorted(cells, key=lambda c: (int(c.name.removeprefix("seed-")), c.parts[-3])):
         with (cell / "metrics.csv").open(newline="") as file:
             episodes = list(csv.DictReader(file))

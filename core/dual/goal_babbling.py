@@ -5,7 +5,7 @@ peak, and the map grows only where the agent has been. From a fixed start the ai
 the area the agent already knows: on the noisy TV's fixed-start check (`python -m
 core.dual.checks.planner_aim fixed`, the planner alone on `core.envs.noisy_tv.NoisyTVEnv`, tuning seeds
 100-104, 20k steps) the progress planner of 63a3ecb covered 0.39 of the cells outside the noise over the late
-half against a random walk's 0.64, lower in 5 of 5 seeds (docs/dual-system.md, items 19-20). In the loop it
+half against a random walk's 0.64, lower in 4 of 5 seeds (docs/dual-system.md, items 19-20). In the loop it
 covered no more than SAC alone.
 
 Intrinsically motivated goal exploration (SAGG-RIAC, Baranes & Oudeyer 2013; IMGEP, Forestier et al. 2022)

@@ -31,3 +31,20 @@ def test_readme_study_4_mountaincar_figures_are_what_the_archive_holds():
     sac = by_cell[("SAC", "100")]  # "SAC alone on the same seed never did in 50k steps"
     assert (sac["first flag (env step)"], sac["training episodes at the flag"]) == ("–", "0 of 51")
     assert json.loads((archive / "SAC" / "task" / "seed-100" / "summary.json").read_text())["steps"] >= 50_000
+
+
+def test_a_stopped_cell_is_left_out_until_it_finishes(tmp_path):
+    """Only cells the runner counts as done get a row: a stopped run's summary.json (it resumes) has none."""
+    import json
+
+    for label, stopped in (("finished", False), ("stopped", True)):
+        cell = tmp_path / label / "task" / "seed-100"
+        cell.mkdir(parents=True)
+        (cell / "metrics.csv").write_text(
+            "episode,global_step,charts/episodic_return,eval/return\n1,999,-3.0,\n2,1500,95.0,93.0\n")
+        summary = {"stopped": stopped, "eval_return": None if stopped else 93.0}
+        (cell / "summary.json").write_text(json.dumps(summary))
+    rows = load_script("flag_table").flag_rows(tmp_path)
+    assert [row["method"] for row in rows] == ["finished"]
+    assert rows[0]["first flag (env step)"] == "1 500"
+    assert rows[0]["training episodes at the flag"] == "1 of 2"

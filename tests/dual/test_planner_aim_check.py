@@ -111,3 +111,30 @@ def test_the_fixed_start_check_scores_the_noisy_tv_measure_against_the_walk():
     differences = [b["coverage_rest"] - w["coverage_rest"] for b, w in pairs]
     assert figures["babbling_coverage_rest_minus_walk"] == pytest.approx(np.mean(differences), abs=1e-4)
     assert 0.0 < figures["babbling_planned"] <= 1.0 and figures["babbling_coverage_rest_p"] <= 1.0
+
+
+def test_the_published_fixed_start_table_is_what_the_archived_check_printed():
+    """docs/results.md's item-20 table: each row's per-seed coverage and mean are the archived output of
+    `python -m core.dual.checks.planner_aim fixed … --per-seed` (results/study4-fixed-start-check/), and the
+    README's figures from it."""
+    import json
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    published = (root / "docs" / "results.md").read_text()
+    readme = (root / "README.md").read_text()
+    means = {}
+    for path in sorted((root / "results" / "study4-fixed-start-check").glob("*.jsonl")):
+        commit = path.name.split("-")[0]
+        lines = [json.loads(line) for line in path.read_text().splitlines()]
+        summary = lines[-1]
+        for planner in {row["planner"] for row in lines[:-1]}:
+            coverage = [row["coverage_rest"] for row in lines[:-1] if row["planner"] == planner]
+            assert summary[f"{planner}_coverage_rest"] == pytest.approx(np.mean(coverage), abs=1e-4)
+            cells = " / ".join(f"{value:.3f}" for value in coverage) + f" | {np.mean(coverage):.3f} |"
+            assert cells in published, (path.name, planner, cells)
+            means[(commit, path.name.split("seeds-")[1][:-6], planner)] = f"{np.mean(coverage):.3f}"
+    assert means[("a5ecd29", "100-104", "progress")] == "0.632"
+    assert means[("a5ecd29", "100-104", "random_walk")] == "0.640"
+    assert means[("a5ecd29", "105-109", "babbling")] == "0.839"
+    assert "0.632 against the walk's 0.640" in readme and "babbled goals alone 0.839" in readme

@@ -64,3 +64,20 @@ def test_study_4_noisy_tv_table_is_what_the_archive_gives():
     assert "coverage 0.171 against SAC's 0.173, P(more coverage than SAC) 0.48 [0.12, 0.84]" in readme
     assert f"{progress['coverage_rest_iqm']['iqm']:.3f}" == "0.171"
 
+
+
+def test_study_4_noisy_tv_table_of_todays_readings_is_what_the_archive_gives():
+    """docs/results.md's table of the noisy-TV tuning cells with goal babbling (a5ecd29 on) is the
+    command's output on results/study4-noisy-tv-tuning: the baselines' cells carried over, the aiming
+    planners' rerun."""
+    from pathlib import Path
+
+    from core.experiments.noisy_tv_table import markdown_rows
+
+    root = Path(__file__).resolve().parents[2]
+    table = method_table(root / "results" / "study4-noisy-tv-tuning", ["SAC", "SAC+RND"])
+    assert {"SAC", "SAC+RND", "SAC+IM2C-progress", "SAC+IM2C-babbling"} <= set(table)
+    assert table["SAC"]["seeds"] == [100, 101, 102, 103, 104]
+    published = (root / "docs" / "results.md").read_text()
+    for line in markdown_rows(table, ["SAC", "SAC+RND"]):
+        assert line in published, line

@@ -48,3 +48,16 @@ def test_a_stopped_cell_is_left_out_until_it_finishes(tmp_path):
     assert [row["method"] for row in rows] == ["finished"]
     assert rows[0]["first flag (env step)"] == "1 500"
     assert rows[0]["training episodes at the flag"] == "1 of 2"
+
+
+def test_todays_mountaincar_rows_and_the_readme_figure_match_the_archive():
+    """The live grid's first cells (goal babbling on, a5ecd29): docs/results.md prints each row, and the
+    README's pink-noise figure is the archive's."""
+    rows = load_script("flag_table").flag_rows(ROOT / "results" / "study4-mountaincar-tuning")
+    by_cell = {(r["method"], r["seed"]): r for r in rows}
+    assert by_cell[("SAC-pink", "100")]["first flag (env step)"] == "759"
+    assert by_cell[("SAC+IM2C-babbling-0.1", "100")]["first flag (env step)"] == "–"
+    published = (ROOT / "docs" / "results.md").read_text()
+    for row in rows:
+        assert "| " + " | ".join(row.values()) + " |" in published
+    assert "pink action noise on our SAC did at 759" in (ROOT / "README.md").read_text()

@@ -4,11 +4,11 @@ The committed progress reading, but a babbled goal acts also where the aim has n
 floored at 1e-3, as item 20's prototype), scored by the fixed-start check's measure on the same seeds as the
 committed rule."""
 
+import copy
 import dataclasses
 import json
 import sys
 
-import numpy as np
 import torch
 
 import core.dual.checks.planner_aim as planner_aim
@@ -18,22 +18,22 @@ from core.dual import goal_babbling
 torch.set_num_threads(1)
 
 
+committed_choose = goal_babbling.GoalBabbling.choose
+
+
 def choose(self, aim, u, margin):
-    if self.decisions % self.patience == 0:
-        dims = aim.centres.shape[1]
-        draws = torch.rand(1 + dims, generator=self.generator, dtype=torch.float64).numpy()
-        babble, point = float(draws[0]), draws[1:]
-        self.goal = None
-        if babble < self.share and aim.centres.shape[0] > 0:
-            low, high = aim.centres.min(axis=0) - margin, aim.centres.max(axis=0) + margin
-            self.goal = low + (high - low) * point
-    self.decisions += 1
-    if self.goal is not None and float(np.linalg.norm(np.asarray(u).reshape(-1) - self.goal)) < margin:
-        self.goal = None
-    if self.goal is None:
-        return aim
-    aim.goal, aim.weight, aim.babbled = self.goal, max(aim.weight, 1e-3), True  # also without a contrast
-    return aim
+    """The committed rule, with a babbled goal's length floored at 1e-3, also where the aim has no goal."""
+    if aim.goal is None:  # no contrast: babble through a stand-in aim, else aim at nothing (as committed)
+        stand_in = copy.copy(aim)
+        stand_in.goal, stand_in.weight = aim.centres.mean(axis=0), 0.0
+        chosen = committed_choose(self, stand_in, u, margin)
+        if not chosen.babbled:
+            return aim
+    else:
+        chosen = committed_choose(self, aim, u, margin)
+    if chosen.babbled:
+        chosen.weight = max(chosen.weight, 1e-3)
+    return chosen
 
 
 goal_babbling.GoalBabbling.choose = choose

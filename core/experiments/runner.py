@@ -97,7 +97,8 @@ def plan_experiment(
             raise ExperimentError(
                 f"bad value for --only: {', '.join(unknown)} (the methods are: {', '.join(labels)})"
             )
-        cells = [cell for cell in cells if cell.label in set(only)]
+        wanted = set(only)
+        cells = [cell for cell in cells if cell.label in wanted]
     check_cells(cells)
     plan = ExperimentPlan(spec=spec, directory=experiment_dir(spec, out), cells=cells)
     for cell in cells:

@@ -315,14 +315,22 @@ def _run_planners(runs: Sequence[tuple[str, DualConfig | None, str | None]], ste
         if per_seed is not None:
             per_seed.extend({"planner": name, "seed": seed, **{k: round(v, 4) for k, v in row.items()}}
                             for seed, row in zip(seeds, rows, strict=True))
-    walk = figures["random_walk"]
     for name, rows in figures.items():
-        if name == "random_walk":
-            continue
-        for key in PAIRED:
-            differences = [row[key] - base[key] for row, base in zip(rows, walk, strict=True)]
-            out[f"{name}_{key}_minus_walk"] = round(float(np.mean(differences)), 3)
-            out[f"{name}_{key}_p"] = round(exact_sign_flip_p(differences), 3)
+        if name != "random_walk":
+            out.update(_versus_walk(name, rows, figures["random_walk"], PAIRED, digits=3))
+    return out
+
+
+def _versus_walk(name: str, rows: Sequence[dict[str, float]], walk: Sequence[dict[str, float]],
+                 keys: Sequence[str], digits: int) -> dict[str, float]:
+    """A planner's per-seed ``rows`` against the random walk's of the same seeds, on each of ``keys``: the
+    mean paired difference (``<name>_<key>_minus_walk``, rounded to ``digits``) and its exact sign-flip p
+    (``<name>_<key>_p``)."""
+    out: dict[str, float] = {}
+    for key in keys:
+        differences = [row[key] - base[key] for row, base in zip(rows, walk, strict=True)]
+        out[f"{name}_{key}_minus_walk"] = round(float(np.mean(differences)), digits)
+        out[f"{name}_{key}_p"] = round(exact_sign_flip_p(differences), 3)
     return out
 
 
@@ -368,12 +376,8 @@ def fixed_start_check(dual: DualConfig, steps: int = 20000, seeds: Sequence[int]
         if per_seed is not None:
             per_seed.extend({"planner": name, "seed": seed, **row}
                             for seed, row in zip(seeds, rows, strict=True))
-        if name == "random_walk":
-            continue
-        for key in FIXED_START_PAIRED:
-            differences = [row[key] - walk[key] for row, walk in zip(rows, runs["random_walk"], strict=True)]
-            out[f"{name}_{key}_minus_walk"] = round(float(np.mean(differences)), 4)
-            out[f"{name}_{key}_p"] = round(exact_sign_flip_p(differences), 3)
+        if name != "random_walk":
+            out.update(_versus_walk(name, rows, runs["random_walk"], FIXED_START_PAIRED, digits=4))
     return out
 
 

@@ -21,7 +21,8 @@ steps), ``plan_action_shift`` (mean max-abs difference between the executed MPC 
 μ(φ_t)), with ``dual.refit_every`` set, ``refit_error`` (mean Eq. 8 error of the refit batches before the
 step), and with an aiming planner, ``aimed_decisions`` (decisions whose plan was pulled toward a goal),
 ``babbled_decisions`` (those whose goal was babbled past the map's edge, `core.dual.goal_babbling`) and
-``aim_contrast`` (the mean pull length w of the aimed decisions, before the scale c).
+``aim_contrast`` (the mean pull length w of the aimed decisions, before the scale c; a babbled goal's is
+floored at `core.dual.goal_babbling.FLOOR`).
 """
 
 from __future__ import annotations

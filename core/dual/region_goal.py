@@ -87,15 +87,17 @@ class RegionGoal:
         self.babbled = False
         """Whether the goal was babbled past the map's edge (`redirected`), not the values' peak."""
 
-    def redirected(self, goal: np.ndarray | None) -> RegionGoal:
-        """The same pull (length w, action map, values) toward another point ``goal`` of the map's coordinates
-        (`core.dual.goal_babbling`), or with no goal (None: no pull); ``self`` unchanged."""
-        if self.goal is None:
-            raise ValueError("no aim to redirect (no contrast among the values)")
+    def redirected(self, goal: np.ndarray | None, weight: float | None = None) -> RegionGoal:
+        """The same pull (action map, values; length ``weight``, else w) toward another point ``goal`` of the
+        map's coordinates (`core.dual.goal_babbling`), or with no goal (None: no pull); ``self`` unchanged.
+        A goal needs a positive length: redirecting an aim with no contrast needs ``weight``."""
         other = copy.copy(self)
         other.babbled = goal is not None
         dims = self.centres.shape[1]
         other.goal = None if goal is None else np.asarray(goal, dtype=np.float64).reshape(dims)
+        other.weight = self.weight if weight is None else float(weight)
+        if other.goal is not None and not other.weight > 0.0:
+            raise ValueError(f"a goal needs a pull length > 0, got {other.weight}")
         return other
 
     def __call__(self, latents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import torch
 
-from core.dual.goal_babbling import PATIENCE, SHARE, GoalBabbling
+from core.dual.goal_babbling import FLOOR, PATIENCE, REACH, SHARE, GoalBabbling
 from core.dual.region_goal import RegionGoal
 
 CENTRES = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 2.0]])
@@ -27,25 +27,55 @@ def test_about_a_share_of_picks_babble_inside_the_widened_box_and_each_is_held_u
     share = len(babbled) / picks
     assert abs(share - SHARE) < 4 * np.sqrt(SHARE * (1 - SHARE) / picks), share  # binomial, 4 standard errors
     points = np.array(babbled)
-    low, high = CENTRES.min(axis=0) - 0.5, CENTRES.max(axis=0) + 0.5
+    low, high = CENTRES.min(axis=0) - REACH * 0.5, CENTRES.max(axis=0) + REACH * 0.5
     assert (points >= low).all() and (points <= high).all()
-    outside = ((points < CENTRES.min(axis=0)) | (points > CENTRES.max(axis=0))).any(axis=1)
-    assert 0.2 < outside.mean() < 0.9  # a fair part of the draws lies past the nodes' extent
+    past_reach = ((points < CENTRES.min(axis=0) - 0.5) | (points > CENTRES.max(axis=0) + 0.5)).any(axis=1)
+    assert 0.2 < past_reach.mean() < 0.9  # a fair part of the draws lies past e_max beyond the nodes' extent
+    assert babbling.picks == len(babbled) and babbling.dropped_at_once == 0  # FAR is near no draw
 
 
 def test_a_babbled_goal_keeps_the_aims_pull_and_is_dropped_once_reached():
     babbling = GoalBabbling(seed=0, share=1.0)
     first = babbling.choose(AIM, FAR, margin=0.5)
-    assert not np.array_equal(first.goal, AIM.goal)
-    assert first.weight == AIM.weight and first.values is AIM.values and AIM.goal is not None  # aim unchanged
+    assert not np.array_equal(first.goal, AIM.goal) and first.babbled
+    assert first.weight == AIM.weight > FLOOR and first.values is AIM.values  # the aim's pull length
+    assert AIM.goal is not None and not AIM.babbled  # the aim itself unchanged
     reached = babbling.choose(AIM, first.goal + 0.1, margin=0.5)  # within e_max of it
     np.testing.assert_array_equal(reached.goal, AIM.goal)
     assert babbling.goal is None
-    # no aim (no contrast among the values): nothing is babbled toward either
-    flat = RegionGoal(CENTRES, np.full(3, 0.3))
-    assert GoalBabbling(seed=0, share=1.0).choose(flat, FAR, margin=0.5) is flat
     with pytest.raises(ValueError):
         GoalBabbling(seed=0, share=1.5)
+
+
+def test_where_the_aim_has_no_contrast_a_babbled_goal_still_pulls_with_the_floor_length():
+    """Item 21: with all values equal the aim's own goal is nothing; a babbled goal pulls all the same, its
+    length floored (a goal of length 0 is refused)."""
+    flat = RegionGoal(CENTRES, np.full(3, 0.3))
+    assert flat.goal is None and flat.weight == 0.0
+    babbled = GoalBabbling(seed=0, share=1.0).choose(flat, FAR, margin=0.5)
+    assert babbled.babbled and babbled.goal is not None and babbled.weight == FLOOR
+    values, grads = babbled(np.zeros((1, 2)))
+    assert values[0] < 0.0 and np.linalg.norm(grads) > 0.0  # it pulls toward the drawn point
+    assert GoalBabbling(seed=0, share=0.0).choose(flat, FAR, margin=0.5) is flat  # no pick: no goal
+    with pytest.raises(ValueError):
+        flat.redirected(np.zeros(2))
+
+
+def test_a_goal_drawn_where_the_agent_already_is_counts_as_dropped_at_once():
+    """One node: with no widening every draw is the node itself, reached at once by an agent standing on it;
+    widened by REACH e_max, most draws lie out of reach."""
+    node = RegionGoal(np.array([[0.0, 0.0]]), np.array([0.5]))
+    unwidened = GoalBabbling(seed=0, share=1.0, reach=0.0)
+    for _ in range(20 * PATIENCE):
+        assert unwidened.choose(node, np.zeros(2), margin=0.5).goal is None  # the aim has no contrast
+    assert unwidened.picks == unwidened.dropped_at_once == 20
+    widened = GoalBabbling(seed=0, share=1.0)
+    for _ in range(200 * PATIENCE):
+        widened.choose(node, np.zeros(2), margin=0.5)
+    # uniform in a square of side 2 REACH e_max: the disc of radius e_max holds π / (2 REACH)² of it
+    expected = np.pi / (2 * REACH) ** 2
+    assert widened.picks == 200
+    assert abs(widened.dropped_at_once / 200 - expected) < 4 * np.sqrt(expected * (1 - expected) / 200)
 
 
 def test_with_babbled_goals_only_there_is_no_goal_between_them():

@@ -66,16 +66,16 @@ def test_study_4_noisy_tv_table_is_what_the_archive_gives():
 
 
 
-def test_study_4_noisy_tv_table_of_todays_readings_is_what_the_archive_gives():
-    """docs/results.md's table of the noisy-TV tuning cells with goal babbling (a5ecd29 on) is the
-    command's output on results/study4-noisy-tv-tuning: the baselines' cells carried over, the aiming
-    planners' rerun."""
+def test_study_4_noisy_tv_table_of_a5ecd29s_babbling_is_what_the_archive_gives():
+    """docs/results.md's table of the noisy-TV tuning cells with a5ecd29's goal babbling is the command's
+    output on results/study4-noisy-tv-tuning-a5ecd29: the baselines' cells carried over, the aiming planners'
+    rerun."""
     from pathlib import Path
 
     from core.experiments.noisy_tv_table import markdown_rows
 
     root = Path(__file__).resolve().parents[2]
-    table = method_table(root / "results" / "study4-noisy-tv-tuning", ["SAC", "SAC+RND"])
+    table = method_table(root / "results" / "study4-noisy-tv-tuning-a5ecd29", ["SAC", "SAC+RND"])
     assert {"SAC", "SAC+RND", "SAC+IM2C-progress", "SAC+IM2C-babbling"} <= set(table)
     assert table["SAC"]["seeds"] == [100, 101, 102, 103, 104]
     published = (root / "docs" / "results.md").read_text()

@@ -117,10 +117,11 @@ class OracleAimWorld(LocalWorldModels):
 
 
 def _drive(env: ThreeRegionsEnv, dual: DualConfig | None, steps: int, seed: int, oracle: str | None = None,
-           ) -> Iterator[tuple[np.ndarray, dict, bool]]:
+           ) -> Iterator[tuple[np.ndarray, dict, bool, LocalWorldModels | None]]:
     """Run ``steps`` steps on ``env`` (reset whenever an episode ends): the planner of ``dual`` (None: the
     random walk), with ``oracle`` = ``gated`` or ``everywhere`` aiming at the truth (`OracleAimWorld`); yield
-    each step's new observation, its info and whether the planner chose its action."""
+    each step's new observation, its info, whether the planner chose its action, and the planner's world
+    (None for the walk)."""
     rng = np.random.default_rng(seed)
     obs, _ = env.reset(seed=seed)
     world = meta = None
@@ -147,7 +148,7 @@ def _drive(env: ThreeRegionsEnv, dual: DualConfig | None, steps: int, seed: int,
         if world is not None:
             world.learn_transition(node, phi, torch.from_numpy(action.astype(np.float32)), 0.0,
                                    torch.from_numpy(nxt.astype(np.float32)))
-        yield nxt, info, planned
+        yield nxt, info, planned, world
         obs = nxt
         if terminated or truncated:
             obs, _ = env.reset()
@@ -161,29 +162,37 @@ def visits(dual: DualConfig | None, steps: int, seed: int, oracle: str | None = 
     env = check_env(min(steps, episode))
     regions = np.zeros(steps, dtype=np.int64)
     planned = np.zeros(steps, dtype=bool)
-    for step, (nxt, _, chose) in enumerate(_drive(env, dual, steps, seed, oracle)):
+    for step, (nxt, _, chose, _) in enumerate(_drive(env, dual, steps, seed, oracle)):
         regions[step], planned[step] = int(env.region_at(nxt[0])), chose
     return regions, planned
 
 
-def fixed_start_measures(dual: DualConfig | None, steps: int, seed: int) -> dict[str, float]:
+def fixed_start_measures(dual: DualConfig | None, steps: int, seed: int) -> dict[str, float | int]:
     """The noisy TV's measures of one run of the planner of ``dual`` (None: the random walk) on
     `NoisyTVEnv` itself — 200-step episodes from the fixed start (−0.9, 0), the default layout (trivial |
     learnable | noise), no reward, no learner beside the planner: ``late/coverage_rest`` and
     ``late/noise_share`` of the episodes that start in the second half of ``steps`` (`late_half_measures`,
-    the loop's measure), and ``planned``, the share of steps the planner chose. The check of item 19 of
-    docs/dual-system.md: with a fixed start the map grows only where the planner has been."""
+    the loop's measure), ``planned``, the share of steps the planner chose, and for a planner that babbles
+    ``babbled_picks`` (babbled goals drawn) and ``dropped_at_once`` (the share of them drawn within e_max of
+    the agent, so reached at once; `GoalBabbling`). The check of items 19-21 of docs/dual-system.md: with a
+    fixed start the map grows only where the planner has been."""
     env = NoisyTVEnv()
     rows: list[dict[str, float]] = []
     planned = length = 0
-    for step, (_, info, chose) in enumerate(_drive(env, dual, steps, seed), start=1):
-        planned, length = planned + chose, length + 1
+    world: LocalWorldModels | None = None
+    for step, (_, info, chose, driven) in enumerate(_drive(env, dual, steps, seed), start=1):
+        planned, length, world = planned + chose, length + 1, driven
         if "episode_diagnostics" in info:
             rows.append({"global_step": step, "charts/length": length, **info["episode_diagnostics"]})
             length = 0
     measures = late_half_measures(rows, budget=steps)
-    return {"coverage_rest": round(measures["late/coverage_rest"], 4),
-            "noise_share": round(measures["late/noise_share"], 4), "planned": round(planned / steps, 4)}
+    out = {"coverage_rest": round(measures["late/coverage_rest"], 4),
+           "noise_share": round(measures["late/noise_share"], 4), "planned": round(planned / steps, 4)}
+    babbling = None if world is None else world.goal_babbling
+    if babbling is not None:
+        out.update(babbled_picks=babbling.picks,
+                   dropped_at_once=round(babbling.dropped_at_once / max(babbling.picks, 1), 4))
+    return out
 
 
 def _shares(visited: tuple[np.ndarray, np.ndarray]) -> dict[str, float]:

@@ -51,9 +51,9 @@ def test_a_stopped_cell_is_left_out_until_it_finishes(tmp_path):
 
 
 def test_todays_mountaincar_rows_and_the_readme_figure_match_the_archive():
-    """The live grid's first cells (goal babbling on, a5ecd29): docs/results.md prints each row, and the
+    """The live grid's first cells at a5ecd29 (its goal babbling): docs/results.md prints each row, and the
     README's pink-noise figure is the archive's."""
-    rows = load_script("flag_table").flag_rows(ROOT / "results" / "study4-mountaincar-tuning")
+    rows = load_script("flag_table").flag_rows(ROOT / "results" / "study4-mountaincar-tuning-a5ecd29")
     by_cell = {(r["method"], r["seed"]): r for r in rows}
     assert by_cell[("SAC-pink", "100")]["first flag (env step)"] == "759"
     assert by_cell[("SAC+IM2C-babbling-0.1", "100")]["first flag (env step)"] == "–"

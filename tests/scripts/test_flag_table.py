@@ -61,3 +61,16 @@ def test_todays_mountaincar_rows_and_the_readme_figure_match_the_archive():
     for row in rows:
         assert "| " + " | ".join(row.values()) + " |" in published
     assert "pink action noise on our SAC did at 759" in (ROOT / "README.md").read_text()
+
+
+def test_the_peers_mountaincar_rows_match_the_archive():
+    """Item 21's MountainCar table (the peers' cells, which no planner reading touches): docs/results.md
+    prints each row of `scripts/flag_table.py` on results/study4-mountaincar-tuning; pink noise on our SAC
+    finds the flag on each tuning seed."""
+    rows = load_script("flag_table").flag_rows(ROOT / "results" / "study4-mountaincar-tuning")
+    pink = [r for r in rows if r["method"] == "SAC-pink"]
+    assert [r["seed"] for r in pink] == ["100", "101", "102"]
+    assert all(r["first flag (env step)"] != "–" for r in pink)
+    published = (ROOT / "docs" / "results.md").read_text()
+    for row in rows:
+        assert "| " + " | ".join(row.values()) + " |" in published

@@ -140,3 +140,6 @@ def test_the_published_fixed_start_table_is_what_the_archived_check_printed():
     lines = [json.loads(line) for line in fresh.read_text().splitlines()]
     noise = {planner: f"{lines[-1][f'{planner}_noise_share']:.3f}" for planner in ("progress", "babbling")}
     assert f"late noise share {noise['progress']} against the babbled goals' {noise['babbling']}" in readme
+    aims = root / "results" / "study4-fixed-start-check" / "8ce8741-aims-seeds-110-114.jsonl"
+    summary = json.loads(aims.read_text().splitlines()[-1])
+    assert f"the disagreement planner's {summary['disagreement_noise_share']:.3f})" in readme

@@ -84,7 +84,7 @@ class GoalBabbling:
     def choose(self, aim: RegionGoal, u: np.ndarray, margin: float) -> RegionGoal:
         """The goal for this decision: ``aim`` itself, or ``aim`` redirected to the babbled goal; ``u`` the
         agent's position in map coordinates, ``margin`` e_max in map units."""
-        position = np.asarray(u, dtype=np.float64).reshape(-1)
+        drawn = False
         if self.decisions % self.patience == 0:
             dims = aim.centres.shape[1]
             draws = torch.rand(1 + dims, generator=self.generator, dtype=torch.float64).numpy()
@@ -93,12 +93,13 @@ class GoalBabbling:
             if babble < self.share and aim.centres.shape[0] > 0:
                 widening = self.reach * margin
                 low, high = aim.centres.min(axis=0) - widening, aim.centres.max(axis=0) + widening
-                self.goal = low + (high - low) * point
+                self.goal, drawn = low + (high - low) * point, True
                 self.picks += 1
-                self.dropped_at_once += int(float(np.linalg.norm(position - self.goal)) < margin)
         self.decisions += 1
+        position = np.asarray(u, dtype=np.float64).reshape(-1)
         if self.goal is not None and float(np.linalg.norm(position - self.goal)) < margin:
             self.goal = None
+            self.dropped_at_once += int(drawn)
         if self.goal is not None:
             return aim.redirected(self.goal, weight=max(aim.weight, FLOOR))
         if self.only and aim.goal is not None:

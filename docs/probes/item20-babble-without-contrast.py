@@ -1,5 +1,7 @@
 """Probe of item 20 (docs/dual-system.md), throwaway: run from the repository root as
-``python docs/probes/item20-babble-without-contrast.py 105,106,107,108,109 20000`` (commit a5ecd29 or later).
+``python docs/probes/item20-babble-without-contrast.py 105,106,107,108,109 20000`` at a commit from a5ecd29 to
+db8655e (from 8ce8741 on, `GoalBabbling.choose` is this rule itself with the box widened by 2 e_max, item 21,
+and the probe runs that).
 The committed progress reading, but a babbled goal acts also where the aim has no contrast (the pull length
 floored at 1e-3, as item 20's prototype), scored by the fixed-start check's measure on the same seeds as the
 committed rule."""

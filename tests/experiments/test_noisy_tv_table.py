@@ -8,8 +8,20 @@ import json
 import numpy as np
 
 from core.envs.noisy_tv import encode_cells
-from core.experiments.noisy_tv_table import main, method_table
+from core.experiments.noisy_tv_table import main, markdown_header, markdown_rows, method_table
 from core.runs.run_dir import MetricsCSV
+from tests.utils.scripts import ROOT
+
+
+def published_table(archive: str, baselines: list[str]) -> dict[str, dict]:
+    """`method_table` of results/``archive`` against ``baselines``, after checking that docs/results.md prints
+    its header and each of its rows."""
+    table = method_table(ROOT / "results" / archive, baselines)
+    published = (ROOT / "docs" / "results.md").read_text()
+    assert markdown_header(baselines) in published
+    for line in markdown_rows(table, baselines):
+        assert line in published, line
+    return table
 
 
 def test_method_table_groups_runs_by_method_and_compares_each_with_the_baselines(tmp_path, capsys) -> None:
@@ -44,60 +56,32 @@ def test_method_table_groups_runs_by_method_and_compares_each_with_the_baselines
 
 def test_study_4_noisy_tv_table_is_what_the_archive_gives():
     """docs/results.md's study-4 noisy-TV table of 63a3ecb is the command's output on the archived grid."""
-    from pathlib import Path
-
-    from core.experiments.noisy_tv_table import markdown_header, markdown_rows
-
-    root = Path(__file__).resolve().parents[2]
-    table = method_table(root / "results" / "study4-noisy-tv-tuning-63a3ecb", ["SAC", "SAC+RND"])
+    table = published_table("study4-noisy-tv-tuning-63a3ecb", ["SAC", "SAC+RND"])
     assert sorted(table) == ["SAC", "SAC+IM2C", "SAC+IM2C-disagreement", "SAC+IM2C-progress", "SAC+RND"]
     assert all(row["seeds"] == [100, 101, 102, 103, 104] for row in table.values())
     progress = table["SAC+IM2C-progress"]
     assert progress["noise_share"] == [0.0] * 5  # never at the noise
     assert sum(v > 0.05 for v in table["SAC+RND"]["noise_share"]) == 4  # RND drawn to it in 4 of 5
-    published = (root / "docs" / "results.md").read_text()
-    assert markdown_header(["SAC", "SAC+RND"]) in published
-    for line in markdown_rows(table, ["SAC", "SAC+RND"]):
-        assert line in published, line
     assert f"{progress['coverage_rest_iqm']['iqm']:.3f}" == "0.171"
-
 
 
 def test_study_4_noisy_tv_table_of_a5ecd29s_babbling_is_what_the_archive_gives():
     """docs/results.md's table of the noisy-TV tuning cells with a5ecd29's goal babbling is the command's
     output on results/study4-noisy-tv-tuning-a5ecd29: the baselines' cells carried over, the aiming planners'
     rerun."""
-    from pathlib import Path
-
-    from core.experiments.noisy_tv_table import markdown_rows
-
-    root = Path(__file__).resolve().parents[2]
-    table = method_table(root / "results" / "study4-noisy-tv-tuning-a5ecd29", ["SAC", "SAC+RND"])
+    table = published_table("study4-noisy-tv-tuning-a5ecd29", ["SAC", "SAC+RND"])
     assert {"SAC", "SAC+RND", "SAC+IM2C-progress", "SAC+IM2C-babbling"} <= set(table)
     assert table["SAC"]["seeds"] == [100, 101, 102, 103, 104]
-    published = (root / "docs" / "results.md").read_text()
-    for line in markdown_rows(table, ["SAC", "SAC+RND"]):
-        assert line in published, line
 
 
 def test_study_4_noisy_tv_table_of_item_21_is_what_the_archive_gives():
     """docs/results.md's item-21 table (8ce8741's babbling, pink noise beside it) is the command's output on
     results/study4-noisy-tv-tuning, against SAC, SAC+RND and SAC-pink; the README's figures are from it."""
-    from pathlib import Path
-
-    from core.experiments.noisy_tv_table import markdown_header, markdown_rows
-
-    root = Path(__file__).resolve().parents[2]
-    baselines = ["SAC", "SAC+RND", "SAC-pink"]
-    table = method_table(root / "results" / "study4-noisy-tv-tuning", baselines)
+    table = published_table("study4-noisy-tv-tuning", ["SAC", "SAC+RND", "SAC-pink"])
     assert {"SAC-pink", "SAC+IM2C-progress", "SAC+IM2C-babbling"} <= set(table)
     assert table["SAC-pink"]["seeds"] == [100, 101, 102, 103, 104]
-    published = (root / "docs" / "results.md").read_text()
-    assert markdown_header(baselines) in published
-    for line in markdown_rows(table, baselines):
-        assert line in published, line
     iqm = {label: f"{row['coverage_rest_iqm']['iqm']:.3f}" for label, row in table.items()}
-    readme = (root / "README.md").read_text()
+    readme = (ROOT / "README.md").read_text()
     assert f"coverage {iqm['SAC+IM2C-progress']} against SAC's {iqm['SAC']}" in readme
     assert f"the babbled goals alone, covers as much ({iqm['SAC+IM2C-babbling']})" in readme
     assert f"the noisy TV's coverage {iqm['SAC-pink']}" in readme

@@ -6,15 +6,20 @@ from __future__ import annotations
 from tests.utils.scripts import ROOT, load_script
 
 
+def assert_published(rows: list[dict[str, str]]) -> None:
+    """Every row of ``rows`` as docs/results.md prints it."""
+    published = (ROOT / "docs" / "results.md").read_text()
+    for row in rows:
+        assert "| " + " | ".join(row.values()) + " |" in published
+
+
 def test_study_4_mountaincar_rows_match_the_published_table():
     rows = load_script("flag_table").flag_rows(ROOT / "results" / "study4-mountaincar-tuning-63a3ecb")
     by_cell = {(r["method"], r["seed"]): r for r in rows}
     progress = by_cell[("SAC+IM2C-progress-0.1", "100")]
     assert (progress["first flag (env step)"], progress["first greedy ≥ 90 (env step)"]) == ("2 871", "8 519")
     assert by_cell[("SAC+IM2C-progress-0.5", "100")]["first flag (env step)"] == "4 747"
-    published = (ROOT / "docs" / "results.md").read_text()
-    for row in rows:  # every row as docs/results.md prints it
-        assert "| " + " | ".join(row.values()) + " |" in published
+    assert_published(rows)
 
 
 def test_study_4_mountaincar_figures_of_63a3ecb_are_what_the_archive_holds():
@@ -56,9 +61,7 @@ def test_a5ecd29s_mountaincar_rows_match_the_archive():
     by_cell = {(r["method"], r["seed"]): r for r in rows}
     assert by_cell[("SAC-pink", "100")]["first flag (env step)"] == "759"
     assert by_cell[("SAC+IM2C-babbling-0.1", "100")]["first flag (env step)"] == "–"
-    published = (ROOT / "docs" / "results.md").read_text()
-    for row in rows:
-        assert "| " + " | ".join(row.values()) + " |" in published
+    assert_published(rows)
 
 
 def test_the_peers_mountaincar_rows_match_the_archive():
@@ -69,8 +72,6 @@ def test_the_peers_mountaincar_rows_match_the_archive():
     pink = [r for r in rows if r["method"] == "SAC-pink"]
     assert [r["seed"] for r in pink] == ["100", "101", "102"]
     assert all(r["first flag (env step)"] != "–" for r in pink)
-    published = (ROOT / "docs" / "results.md").read_text()
-    for row in rows:
-        assert "| " + " | ".join(row.values()) + " |" in published
+    assert_published(rows)
     flags = ", ".join(r["first flag (env step)"] for r in pink)
     assert f"first at env step {flags})" in (ROOT / "README.md").read_text()  # the README's pink figures

@@ -116,23 +116,26 @@ class OracleAimWorld(LocalWorldModels):
         return (_thirds(centres, unit) == REGIONS.index("learnable")).astype(np.float64)
 
 
-def _drive(env: ThreeRegionsEnv, dual: DualConfig | None, steps: int, seed: int, oracle: str | None = None,
-           ) -> Iterator[tuple[np.ndarray, dict, bool, LocalWorldModels | None]]:
-    """Run ``steps`` steps on ``env`` (reset whenever an episode ends): the planner of ``dual`` (None: the
-    random walk), with ``oracle`` = ``gated`` or ``everywhere`` aiming at the truth (`OracleAimWorld`); yield
-    each step's new observation, its info, whether the planner chose its action, and the planner's world
-    (None for the walk)."""
+def _planner_world(dual: DualConfig | None, seed: int, oracle: str | None = None) -> LocalWorldModels | None:
+    """The world models of the planner of ``dual`` (None: the random walk, no world), seeded by ``seed``; with
+    ``oracle`` = ``gated`` or ``everywhere``, aiming at the truth (`OracleAimWorld`)."""
+    if dual is None:
+        return None
+    generator = torch.Generator().manual_seed(seed)
+    if oracle is None:
+        return LocalWorldModels(dual, 3, 2, generator=generator, readings=resolve(dual))
+    return OracleAimWorld(dual, 3, 2, generator=generator, readings=resolve(dual),
+                          plan_everywhere=oracle == "everywhere")
+
+
+def _drive(env: ThreeRegionsEnv, world: LocalWorldModels | None, steps: int, seed: int,
+           ) -> Iterator[tuple[np.ndarray, dict, bool]]:
+    """Run ``steps`` steps on ``env`` (reset whenever an episode ends) with the planner of ``world``
+    (`_planner_world`; None: the random walk); yield each step's new observation, its info and whether the
+    planner chose its action."""
     rng = np.random.default_rng(seed)
     obs, _ = env.reset(seed=seed)
-    world = meta = None
-    if dual is not None:
-        generator = torch.Generator().manual_seed(seed)
-        if oracle is None:
-            world = LocalWorldModels(dual, 3, 2, generator=generator, readings=resolve(dual))
-        else:
-            world = OracleAimWorld(dual, 3, 2, generator=generator, readings=resolve(dual),
-                                   plan_everywhere=oracle == "everywhere")
-        meta = MetaController(world, dual)
+    meta = None if world is None else MetaController(world, world.config)
     actor = _random_actor(rng)
     for _ in range(steps):
         phi = torch.from_numpy(obs.astype(np.float32))
@@ -148,7 +151,7 @@ def _drive(env: ThreeRegionsEnv, dual: DualConfig | None, steps: int, seed: int,
         if world is not None:
             world.learn_transition(node, phi, torch.from_numpy(action.astype(np.float32)), 0.0,
                                    torch.from_numpy(nxt.astype(np.float32)))
-        yield nxt, info, planned, world
+        yield nxt, info, planned
         obs = nxt
         if terminated or truncated:
             obs, _ = env.reset()
@@ -162,7 +165,7 @@ def visits(dual: DualConfig | None, steps: int, seed: int, oracle: str | None = 
     env = check_env(min(steps, episode))
     regions = np.zeros(steps, dtype=np.int64)
     planned = np.zeros(steps, dtype=bool)
-    for step, (nxt, _, chose, _) in enumerate(_drive(env, dual, steps, seed, oracle)):
+    for step, (nxt, _, chose) in enumerate(_drive(env, _planner_world(dual, seed, oracle), steps, seed)):
         regions[step], planned[step] = int(env.region_at(nxt[0])), chose
     return regions, planned
 
@@ -179,9 +182,9 @@ def fixed_start_measures(dual: DualConfig | None, steps: int, seed: int) -> dict
     env = NoisyTVEnv()
     rows: list[dict[str, float]] = []
     planned = length = 0
-    world: LocalWorldModels | None = None
-    for step, (_, info, chose, driven) in enumerate(_drive(env, dual, steps, seed), start=1):
-        planned, length, world = planned + chose, length + 1, driven
+    world = _planner_world(dual, seed)
+    for step, (_, info, chose) in enumerate(_drive(env, world, steps, seed), start=1):
+        planned, length = planned + chose, length + 1
         if "episode_diagnostics" in info:
             rows.append({"global_step": step, "charts/length": length, **info["episode_diagnostics"]})
             length = 0

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from core.envs.noisy_tv import run_measures
+from core.experiments.cells import cell_state
 from core.experiments.statistics import probability_of_improvement, score_summary
 
 MEASURES = ("noise_share", "coverage_rest")
@@ -27,18 +28,19 @@ MEASURES = ("noise_share", "coverage_rest")
 def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> dict[str, Any]:
     """The late-half measures of an experiment folder (``EXP/<label>/<task>/seed-N``), per method.
 
-    Only finished runs count (those with a summary.json). For each method: its per-seed
-    ``late/noise_share`` and ``late/coverage_rest`` (in seed order), the IQM with its 95 % bootstrap CI of
-    each (`core.experiments.statistics.score_summary`), and against each method in ``baselines`` that has
-    runs: P(less time at the noise) — P(X < Y) on ``late/noise_share``, ties counted half — and P(more
-    coverage) — P(X > Y) on ``late/coverage_rest`` — each with its bootstrap CI
+    Only finished runs count (`core.experiments.cells.cell_state` "done": a summary.json that says the run
+    ended normally; a run stopped part-way also writes one, and its half-filled late half would read as nan).
+    For each method: its per-seed ``late/noise_share`` and ``late/coverage_rest`` (in seed order), the IQM
+    with its 95 % bootstrap CI of each (`core.experiments.statistics.score_summary`), and against each method
+    in ``baselines`` that has runs: P(less time at the noise) — P(X < Y) on ``late/noise_share``, ties counted
+    half — and P(more coverage) — P(X > Y) on ``late/coverage_rest`` — each with its bootstrap CI
     (`probability_of_improvement`; issue 50's noisy-TV goals: both CIs above 0.5)."""
     root = Path(experiment_dir)
     runs: dict[str, dict[int, dict[str, float]]] = {}
     for metrics in sorted(root.rglob("metrics.csv")):
         run = metrics.parent
-        if not run.name.startswith("seed-") or not (run / "summary.json").exists():
-            continue  # not a cell, or a cell still running (a run writes summary.json when it ends)
+        if not run.name.startswith("seed-") or cell_state(run) != "done":
+            continue  # not a cell, or one still running or stopped part-way (it resumes)
         label = run.relative_to(root).parts[0]
         runs.setdefault(label, {})[int(run.name.removeprefix("seed-"))] = run_measures(run)
     per_seed = {  # each method's measures in seed order, gathered once

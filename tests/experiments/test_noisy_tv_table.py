@@ -31,14 +31,15 @@ def test_method_table_groups_runs_by_method_and_compares_each_with_the_baselines
         metrics = MetricsCSV(tmp_path / "exp" / label / "task" / f"seed-{seed}" / "metrics.csv")
         metrics.append({"episode": 1, "global_step": 400, "charts/length": 200, "env/noise_share": noise,
                         "env/coverage_rest": 0.0, **encode_cells(visited)})
-        if label != "running":
-            (metrics.path.parent / "summary.json").write_text("{}")
+        if label != "running":  # a run writes summary.json when it ends, normally or stopped part-way
+            (metrics.path.parent / "summary.json").write_text(json.dumps({"stopped": label == "stopped"}))
 
     for seed, (noise, cells) in enumerate([(0.0, 90), (0.1, 60)]):
         run("aimed", seed, noise, cells)
     for seed, (noise, cells) in enumerate([(0.8, 30), (0.9, 15)]):
         run("drawn", seed, noise, cells)
     run("running", 0, 1.0, 1)  # no summary.json yet: a cell still running is left out
+    run("stopped", 0, 1.0, 1)  # stopped part-way (it resumes): left out too
     table = method_table(tmp_path / "exp", baselines=["drawn", "absent"])
     assert table["aimed"]["seeds"] == [0, 1] and table["aimed"]["coverage_rest"] == [90 / 150, 60 / 150]
     assert table["aimed"]["noise_share"] == [0.0, 0.1]
@@ -50,7 +51,7 @@ def test_method_table_groups_runs_by_method_and_compares_each_with_the_baselines
     assert not any("than drawn" in key for key in table["drawn"])
     assert main([str(tmp_path / "exp"), "drawn"]) == 0
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
-    assert [line["method"] for line in lines] == ["aimed", "drawn"]  # not "running"
+    assert [line["method"] for line in lines] == ["aimed", "drawn"]  # not "running" nor "stopped"
     assert main([]) == 2
 
 

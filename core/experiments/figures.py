@@ -7,6 +7,9 @@
   (the interval plot rliable recommends).
 * ``value_traces.png`` — one panel per method, every seed's critic value of the start state (solid) beside
   the discounted return the episode earned (dashed, same colour) over env steps: overestimation in sight.
+* the noisy TV's late half (`plot_noisy_tv`, issue 50): each seed's share of late steps at the noise against
+  its late coverage of the rest, one colour per method, the IQMs crossed — where a method sits between
+  "drawn to the noise" and "covers the rest".
 """
 
 from __future__ import annotations
@@ -98,7 +101,7 @@ def plot_learning_curves(
         axis.set_xlim(0, spec.steps)
         axis.grid(alpha=0.3)
         if axis.get_legend_handles_labels()[0]:
-            axis.legend(fontsize=8, loc="lower right")
+            axis.legend(fontsize=8, loc="upper right")
     figure.suptitle(f"{spec.name}: mean over seeds, band ± 1 std", fontsize=11)
     _save(figure, path)
 
@@ -165,4 +168,27 @@ def plot_value_traces(records: Sequence[ValueTrace], labels: list[str], path: Pa
         axes[index // columns][index % columns].axis("off")
     figure.suptitle("critic's value of the start state (solid) and discounted return earned (dashed)",
                     fontsize=11)
+    _save(figure, path)
+
+
+def plot_noisy_tv(table: dict[str, Any], path: Path, title: str = "") -> None:
+    """Each seed's (late noise share, late coverage of the rest) of `core.experiments.noisy_tv_table`'s
+    ``method_table``, a colour per method, with a cross at the method's IQMs of the two."""
+    plt = _pyplot()
+    labels = list(table)
+    colours = _colours(labels)
+    figure, axis = plt.subplots(figsize=(7.2, 4.8), dpi=100)
+    for label in labels:
+        row = table[label]
+        axis.scatter(row["noise_share"], row["coverage_rest"], color=colours[label], alpha=0.55, s=28,
+                     label=f"{label} ({len(row['seeds'])} seeds)")
+        axis.plot([row["noise_share_iqm"]["iqm"]], [row["coverage_rest_iqm"]["iqm"]], marker="X",
+                  color=colours[label], markersize=12, markeredgecolor="black")
+    axis.set_xlabel("share of late steps at the noise (lower is better)")
+    axis.set_ylabel("late coverage of the cells outside the noise")
+    axis.set_xlim(-0.03, 1.0)
+    axis.set_ylim(0.0, 1.02)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8, loc="upper right")
+    axis.set_title(title or "noisy TV, late half of training: dots are seeds, crosses IQMs", fontsize=10)
     _save(figure, path)

@@ -4,9 +4,10 @@ Issue 50, item 4: `core.envs.noisy_tv` measures one run (``late/noise_share``, `
 late half of training); this module gathers an experiment folder's finished runs by method and summarises them
 with `core.experiments.statistics` (it lives here, not beside the env, because envs sit below experiments).
 
-``python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...] [--markdown]``: one JSON line per
-method, compared with each BASELINE label (e.g. ``SAC SAC+RND``); with ``--markdown``, the table
-docs/results.md prints (study 4).
+``python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...] [--markdown] [--figure PNG]``: one
+JSON line per method, compared with each BASELINE label (e.g. ``SAC SAC+RND``); with ``--markdown``, the table
+docs/results.md prints (study 4); with ``--figure``, also the scatter of
+`core.experiments.figures.plot_noisy_tv` (docs/figures/study4-noisy-tv-tuning.png).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from typing import Any
 
 from core.envs.noisy_tv import run_measures
 from core.experiments.cells import cell_state
+from core.experiments.figures import plot_noisy_tv
 from core.experiments.statistics import probability_of_improvement, score_summary
 
 MEASURES = ("noise_share", "coverage_rest")
@@ -118,12 +120,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     """The command line: `method_table` of EXPERIMENT_DIR against the BASELINE labels, a line a method."""
     args = list(sys.argv[1:] if argv is None else argv)
     if not args:
-        usage = "usage: python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...] [--markdown]"
+        usage = ("usage: python -m core.experiments.noisy_tv_table EXPERIMENT_DIR [BASELINE...] [--markdown]"
+                 " [--figure PNG]")
         print(usage, file=sys.stderr)
         return 2
+    figure = None
+    if "--figure" in args:
+        at = args.index("--figure")
+        if at + 1 >= len(args):
+            print("--figure needs the path of the PNG to write", file=sys.stderr)
+            return 2
+        figure = Path(args.pop(at + 1))
+        args.pop(at)
     markdown = "--markdown" in args
     args = [arg for arg in args if arg != "--markdown"]
     table = method_table(args[0], args[1:])
+    if figure is not None:
+        plot_noisy_tv(table, figure, title=f"{Path(args[0]).name}: late half, dots seeds, crosses IQMs")
     if markdown:
         header = markdown_header(args[1:])
         separator = "|" + "---|" * (header.count(" | ") + 1)

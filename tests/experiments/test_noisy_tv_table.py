@@ -53,6 +53,11 @@ def test_method_table_groups_runs_by_method_and_compares_each_with_the_baselines
     lines = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [line["method"] for line in lines] == ["aimed", "drawn"]  # not "running" nor "stopped"
     assert main([]) == 2
+    figure = tmp_path / "figures" / "noisy-tv.png"
+    assert main([str(tmp_path / "exp"), "drawn", "--figure", str(figure)]) == 0
+    assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"  # the scatter, beside the same JSON lines
+    assert [json.loads(line)["method"] for line in capsys.readouterr().out.splitlines()] == ["aimed", "drawn"]
+    assert main([str(tmp_path / "exp"), "--figure"]) == 2  # no path given
 
 
 def test_study_4_noisy_tv_table_is_what_the_archive_gives():

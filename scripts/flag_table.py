@@ -5,6 +5,11 @@ Study 4's tuning grid (issue 50) has too few seeds per method for the report's I
 what each finished cell did, one Markdown row a cell, by seed and then by method name:
 
     python scripts/flag_table.py results/study4-mountaincar-tuning-63a3ecb
+
+With ``--late``, a second table: what each finished cell did over the late half of its training (episodes
+that ended past half the env steps it ran) — how long its training episodes were, what they returned, and for
+the dual methods the planner's share of the decisions and how far its plan moved the actor's action (the mean
+of ``dual/plan_action_shift``): does the planner hand the task back to the actor once the flag is found?
 """
 
 from __future__ import annotations
@@ -36,10 +41,8 @@ def flag_rows(experiment_dir: Path) -> list[dict[str, str]]:
     of a run that was not stopped; a stopped cell, which resumes, is left out). A training episode reached the
     flag when its return is positive (the +100 outweighs any action cost of 999 steps)."""
     rows = []
-    cells = [cell for cell in Path(experiment_dir).glob("*/*/seed-*") if cell_state(cell) == "done"]
-    for cell in sorted(cells, key=lambda c: (int(c.name.removeprefix("seed-")), c.parts[-3])):
-        with (cell / "metrics.csv").open(newline="") as file:
-            episodes = list(csv.DictReader(file))
+    for cell in _finished_cells(experiment_dir):
+        episodes = _episodes(cell)
         flags = [int(e["global_step"]) for e in episodes if float(e["charts/episodic_return"]) > 0]
         evaluated = [e for e in episodes if e.get("eval/return")]
         solved = [int(e["global_step"]) for e in evaluated if float(e["eval/return"]) >= GOAL]
@@ -53,12 +56,64 @@ def flag_rows(experiment_dir: Path) -> list[dict[str, str]]:
     return rows
 
 
-def main(experiment_dir: Path = typer.Argument(..., help="An experiment folder or its archive.")) -> None:
-    """Print the Markdown table of every finished cell."""
-    typer.echo("| " + " | ".join(COLUMNS) + " |")
-    typer.echo("|" + "---|" * len(COLUMNS))
-    for row in flag_rows(experiment_dir):
+LATE_COLUMNS = (
+    "method", "seed", "late training episodes", "mean length (env steps)", "mean training return",
+    "planner's share of decisions", "mean plan shift of the action",
+)
+"""The columns of :func:`late_rows`."""
+
+
+def _finished_cells(experiment_dir: Path) -> list[Path]:
+    """The cells the runner counts as done, by seed and then by method name."""
+    cells = [cell for cell in Path(experiment_dir).glob("*/*/seed-*") if cell_state(cell) == "done"]
+    return sorted(cells, key=lambda c: (int(c.name.removeprefix("seed-")), c.parts[-3]))
+
+
+def _episodes(cell: Path) -> list[dict[str, str]]:
+    with (cell / "metrics.csv").open(newline="") as file:
+        return list(csv.DictReader(file))
+
+
+def late_rows(experiment_dir: Path) -> list[dict[str, str]]:
+    """One row per finished cell over the late half of its training (the episodes that ended past half its
+    last env step): their number, mean length and mean return, and where the cell ran a dual method, the
+    planner's share of the decisions (``dual/mb_decisions`` over ``dual/mb_decisions`` +
+    ``dual/mf_decisions``) and the mean of ``dual/plan_action_shift`` over those episodes ("–" otherwise)."""
+    rows = []
+    for cell in _finished_cells(experiment_dir):
+        episodes = _episodes(cell)
+        half = int(episodes[-1]["global_step"]) / 2
+        late = [e for e in episodes if int(e["global_step"]) > half]
+        planned = sum(float(e.get("dual/mb_decisions") or 0.0) for e in late)
+        decided = planned + sum(float(e.get("dual/mf_decisions") or 0.0) for e in late)
+        shifts = [float(e["dual/plan_action_shift"]) for e in late if e.get("dual/plan_action_shift")]
+        values = (
+            cell.parts[-3], cell.name.removeprefix("seed-"), str(len(late)),
+            f"{sum(float(e['charts/length']) for e in late) / len(late):.0f}",
+            f"{sum(float(e['charts/episodic_return']) for e in late) / len(late):.1f}",
+            f"{planned / decided:.2f}" if decided > 0 else "–",
+            f"{sum(shifts) / len(shifts):.2f}" if shifts else "–",
+        )
+        rows.append(dict(zip(LATE_COLUMNS, values, strict=True)))
+    return rows
+
+
+def _print(columns: tuple[str, ...], rows: list[dict[str, str]]) -> None:
+    typer.echo("| " + " | ".join(columns) + " |")
+    typer.echo("|" + "---|" * len(columns))
+    for row in rows:
         typer.echo("| " + " | ".join(row.values()) + " |")
+
+
+def main(
+    experiment_dir: Path = typer.Argument(..., help="An experiment folder or its archive."),
+    late: bool = typer.Option(False, "--late", help="Also the late half's table (late_rows)."),
+) -> None:
+    """Print the Markdown table of every finished cell (and with --late the late half's)."""
+    _print(COLUMNS, flag_rows(experiment_dir))
+    if late:
+        typer.echo("")
+        _print(LATE_COLUMNS, late_rows(experiment_dir))
 
 
 if __name__ == "__main__":

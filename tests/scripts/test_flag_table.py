@@ -75,3 +75,33 @@ def test_the_peers_mountaincar_rows_match_the_archive():
     assert_published(rows)
     flags = ", ".join(r["first flag (env step)"] for r in pink)
     assert f"first at env step {flags})" in (ROOT / "README.md").read_text()  # the README's pink figures
+
+
+def test_late_rows_average_the_late_half_and_read_the_planner_where_there_is_one(tmp_path):
+    """The late half is the episodes that ended past half the last env step; the planner's share is its
+    decisions over all decisions; a model-free cell has "–" for both planner columns."""
+    import json
+
+    header = "episode,global_step,charts/episodic_return,charts/length,dual/mb_decisions,dual/mf_decisions," \
+             "dual/plan_action_shift\n"
+    dual = tmp_path / "dual" / "task" / "seed-100"
+    free = tmp_path / "free" / "task" / "seed-100"
+    for cell, rows in (
+        (dual, "1,999,-5.0,999,0,999,\n2,1399,90.0,400,300,100,0.5\n3,1599,96.0,200,200,0,0.1\n"),
+        (free, "1,999,-5.0,999,,,\n2,1999,80.0,1000,,,\n"),
+    ):
+        cell.mkdir(parents=True)
+        (cell / "metrics.csv").write_text(header + rows)
+        (cell / "summary.json").write_text(json.dumps({"stopped": False, "eval_return": 95.0}))
+    rows = {row["method"]: row for row in load_script("flag_table").late_rows(tmp_path)}
+    # dual: last step 1 599, half 799.5 -> all three episodes; 500 of 1 599 decisions planned; shifts of the
+    # two episodes that planned
+    assert rows["dual"]["late training episodes"] == "3"
+    assert rows["dual"]["mean length (env steps)"] == f"{(999 + 400 + 200) / 3:.0f}"
+    assert rows["dual"]["mean training return"] == f"{(-5.0 + 90.0 + 96.0) / 3:.1f}"
+    assert rows["dual"]["planner's share of decisions"] == f"{500 / 1599:.2f}"
+    assert rows["dual"]["mean plan shift of the action"] == "0.30"
+    # free: last step 1 999, half 999.5 -> the second episode alone
+    assert (rows["free"]["late training episodes"], rows["free"]["mean training return"]) == ("1", "80.0")
+    free_row = rows["free"]
+    assert free_row["planner's share of decisions"] == free_row["mean plan shift of the action"] == "–"

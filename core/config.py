@@ -310,8 +310,8 @@ class DualConfig:
     ``model_free`` — an ablation that always acts with μ(φ) (no MPC), keeping regions, local models and r_int.
     Refused with ``--algo i2a`` (`check_dual_combinations`): I2A without its planner is no method of the
     paper."""
-    planner: Literal["paper", "released", "repaired", "progress", "novelty", "disagreement", "babbling"] = (
-        "repaired")
+    planner: Literal["paper", "released", "repaired", "progress", "novelty", "disagreement", "babbling",
+                     "value"] = "repaired"
     """Gradient MPC (Eq. 6-7): paper — (R* − Σ r̂)², plain gradient steps, only the executed action clipped;
     released — ½ Σ (1 − r̂)² otherwise as paper; repaired — (R* − Σ r̂)², the gradient scaled to length
     ``plan_lr``, every plan action clipped after every step; progress — maximise the predicted return plus
@@ -319,7 +319,9 @@ class DualConfig:
     repaired; novelty — the same with prediction error in place of progress (the ablation); disagreement — the
     same with the variance of an ensemble of region models (Plan2Explore's objective). Each of the three
     babbles a fifth of its goals past the map's edge (core/dual/goal_babbling.py); babbling — the progress
-    planner with its own goal removed, its babbled goals kept (the ablation that credits progress or not)."""
+    planner with its own goal removed, its babbled goals kept (the ablation that credits progress or not).
+    These four add the learner's value at the plan's end, γ^H V(φ̂_H), to the predicted return (item 23);
+    value — the predicted return and that value alone, no aim (the progress term's ablation)."""
     d_max: int = 6
     """Maximum planning depth D_max (Algorithm 1)."""
     plan_steps: int = 10

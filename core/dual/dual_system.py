@@ -37,7 +37,7 @@ import torch
 
 from core.config import DualConfig
 from core.dual.meta_controller import MetaController
-from core.dual.planning import ActorFn, PlanResult, Rollout
+from core.dual.planning import ActorFn, PlanResult, Rollout, TerminalValue
 from core.dual.readings import Readings, resolve
 from core.dual.world_models import LocalWorldModels
 from core.modelfree.agent import Transition
@@ -117,13 +117,15 @@ class DualSystem:
         matched."""
         return StepStart(phi=phi, node=self.world.observe_state(phi[0]))
 
-    def decide(self, start: StepStart, actor: ActorFn) -> tuple[np.ndarray, Rollout | None]:
-        """Lines 12-19: the meta-controller's action before exploration, and its rollout when model-based."""
+    def decide(self, start: StepStart, actor: ActorFn,
+               terminal: TerminalValue | None = None) -> tuple[np.ndarray, Rollout | None]:
+        """Lines 12-19: the meta-controller's action before exploration, and its rollout when model-based
+        (``terminal``: the learner's value, for a planner that reads it at the plan's end)."""
         phi, node = start.phi, start.node
         if self.meta is None:
             self._count_model_free()
             return actor(phi)[0].numpy(), None
-        decision = self.meta.decide(phi, node, actor)
+        decision = self.meta.decide(phi, node, actor, terminal)
         if decision.aim is not None:
             self.counters.aim_weights.append(decision.aim.weight)
             self.counters.babbled += int(decision.aim.babbled)

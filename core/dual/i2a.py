@@ -27,6 +27,7 @@ import numpy as np
 from core.config import Config
 from core.dual.dual_system import DualSystem, StepStart
 from core.dual.imagination import RolloutStop, make_imagination
+from core.dual.planning import TerminalValue
 from core.envs.spec import EnvSpec
 from core.modelfree.agent import LearnerAgent, Transition, learner_diagnostics, to_device
 from core.modelfree.replay import PixelReplay
@@ -54,13 +55,15 @@ class I2A(LearnerAgent):
                                             spec.action_dim)
         self.start: StepStart | None = None
         """φ_t and n of the step in progress, from ``act`` to ``observe``."""
+        self.terminal_value = TerminalValue(self.value_and_gradient, config.agent.gamma)
+        """The critic's value at a plan's end, for a planner that reads it (docs/dual-system.md, item 23)."""
 
     def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
         phi = self.encode(obs)  # line 9
         if not explore:
             return self.greedy(phi)
         self.start = self.dual.locate(phi)  # lines 10-11
-        action, rollout = self.dual.decide(self.start, self.actor)  # lines 12-19
+        action, rollout = self.dual.decide(self.start, self.actor, self.terminal_value)  # lines 12-19
         self.imagination.after_decide(self.start, rollout)  # lines 13-21 (line 17)
         return self.explore(action, phi)  # line 20
 

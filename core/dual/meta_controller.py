@@ -31,7 +31,15 @@ from dataclasses import dataclass
 import torch
 
 from core.config import DualConfig
-from core.dual.planning import ActorFn, PlanResult, Rollout, model_rollout, optimise_plan, steer_plan
+from core.dual.planning import (
+    ActorFn,
+    PlanResult,
+    Rollout,
+    TerminalValue,
+    model_rollout,
+    optimise_plan,
+    steer_plan,
+)
 from core.dual.region_goal import RegionGoal
 from core.dual.world_models import LocalWorldModels
 
@@ -78,9 +86,11 @@ class MetaController:
                              continue_at=lambda _i, n: world.reliable(n), locate=world.nearest)
 
     @torch.no_grad()
-    def decide(self, phi: torch.Tensor, node: int, actor: ActorFn) -> MetaDecision:
+    def decide(self, phi: torch.Tensor, node: int, actor: ActorFn,
+               terminal: TerminalValue | None = None) -> MetaDecision:
         """Model-based (rollout + gradient MPC) when LP_{t,n} ≥ 0; else, with an aiming planner and a goal,
-        steered toward it (`steer_plan`); else μ(φ_t)."""
+        steered toward it (`steer_plan`); else μ(φ_t). ``terminal``: the learner's value at the plan's end,
+        used by a planner whose reading has ``terminal`` (none given: the plan ends at its last reward)."""
         phi = phi.reshape(1, -1)
         if self.world.reliable(node):
             rollout = self.rollout(phi, node, actor)
@@ -89,7 +99,8 @@ class MetaController:
                 aim = self.world.aim_goal(self.planner.aim, node, phi)
                 plan = optimise_plan(phi, rollout, self.world.bank, self.planner, steps=cfg.plan_steps,
                                      lr=cfg.plan_lr, r_star=cfg.r_star, aim=aim,
-                                     aim_scale=cfg.intrinsic_scale)
+                                     aim_scale=cfg.intrinsic_scale,
+                                     terminal=terminal if self.planner.terminal else None)
                 return MetaDecision(action=plan.action, model_based=True, rollout=rollout, plan=plan,
                                     aim=aim if aim is not None and aim.goal is not None else None)
         if self.planner.aim != "none" and self.fixed_horizon is None:

@@ -51,6 +51,18 @@ StepFn = Callable[[np.ndarray, np.ndarray, float], None]
 """One Eq. 7 step on the plan ``[H, action]`` (in place) from its gradient, with α."""
 
 
+@dataclass(frozen=True)
+class TerminalValue:
+    """The learner's value at the plan's end, γ^H V(φ̂_H), added to the predicted return (planners whose
+    reading has ``terminal``; docs/dual-system.md, item 23): the objective of value-guided MPC with an
+    off-policy learner (LOOP, Sikchi et al. CoRL 2021; TD-MPC, Hansen et al. ICML 2022)."""
+
+    value: Callable[[np.ndarray], tuple[float, np.ndarray]]
+    """φ ``[latent]`` (float64) → (V(φ) = min_i Q_i(φ, μ(φ)), ∇_φ V ``[latent]``), through critic and μ."""
+    discount: float
+    """γ: the value H steps ahead counts γ^H."""
+
+
 def sum_objective(rewards: np.ndarray, r_star: float) -> tuple[float, np.ndarray]:
     """Eq. 6 as printed: L_plan = (R* − Σ_h r̂_h)²."""
     residual = r_star - rewards.sum()
@@ -181,10 +193,12 @@ def optimise_plan(
     r_star: float = 1.0,
     aim: RegionGoal | None = None,
     aim_scale: float = 0.0,
+    terminal: TerminalValue | None = None,
 ) -> PlanResult:
     """Eq. 7: K steps on L_plan from the rollout's actions, as ``planner`` reads them (module docstring);
     with ``aim``, L_plan − ``aim_scale`` · Σ_h g(φ̃_{h+1}) (`RegionGoal.plan_term`: the planner's aim, its
-    latents predicted by the start node's action map)."""
+    latents predicted by the start node's action map); with ``terminal``, also − γ^H V(φ̂_H) (`TerminalValue`:
+    the learner's value of where the plan ends)."""
     if rollout.depth == 0:
         raise ValueError("optimise_plan needs a rollout of depth >= 1 (the meta-controller chose model-free)")
     objective, step = OBJECTIVES[planner.objective], STEPS[planner.optimiser]
@@ -196,13 +210,13 @@ def optimise_plan(
         np.clip(plan, -1.0, 1.0, out=plan)
     initial_loss = None
     for _ in range(steps):
-        loss, grad = model.loss_and_grad(start, plan, objective, r_star, aim, aim_scale)
+        loss, grad = model.loss_and_grad(start, plan, objective, r_star, aim, aim_scale, terminal)
         if initial_loss is None:
             initial_loss = loss
         step(plan, grad, lr)
         if project:
             np.clip(plan, -1.0, 1.0, out=plan)
-    final_loss, _ = model.loss_and_grad(start, plan, objective, r_star, aim, aim_scale)
+    final_loss, _ = model.loss_and_grad(start, plan, objective, r_star, aim, aim_scale, terminal)
     if initial_loss is None:
         initial_loss = final_loss
     plan_t = torch.from_numpy(plan).to(torch.float32)
@@ -266,10 +280,10 @@ class _PlanModel:
 
     def loss_and_grad(
         self, phi: np.ndarray, plan: np.ndarray, objective: ObjectiveFn, r_star: float,
-        aim: RegionGoal | None = None, aim_scale: float = 0.0,
+        aim: RegionGoal | None = None, aim_scale: float = 0.0, terminal: TerminalValue | None = None,
     ) -> tuple[float, np.ndarray]:
-        """L_plan (minus ``aim_scale`` · the aim's pull, `RegionGoal.plan_term`, with an ``aim``) and its
-        gradient w.r.t. the plan."""
+        """L_plan (minus ``aim_scale`` · the aim's pull, `RegionGoal.plan_term`, with an ``aim``; minus
+        γ^H V(φ̂_H) with a ``terminal`` value) and its gradient w.r.t. the plan."""
         horizon = plan.shape[0]
         model, d = self.model, self.latent_dim
         passes = []
@@ -283,6 +297,11 @@ class _PlanModel:
         loss, d_rewards = objective(rewards, r_star)
         grad = np.empty_like(plan)
         d_next = np.zeros(d)  # dL/dφ̂_{h+1}, flowing back from later steps
+        if terminal is not None:  # − γ^H V(φ̂_H): the back-propagation starts from its gradient instead of 0
+            value, d_value = terminal.value(current)
+            weight = terminal.discount ** horizon
+            loss -= weight * value
+            d_next = -weight * np.asarray(d_value, dtype=np.float64)
         for h in reversed(range(horizon)):
             out, g_output, g_reward = passes[h], d_next, d_rewards[h]
             if model.released:  # σ′ and tanh′, in this loop's own order of products (float64 plans unchanged)

@@ -25,7 +25,8 @@ constants are `HeldOut`.
   steps and clip as repaired, and where the models are not trusted the plan steered toward that goal alone;
   a fifth of its goals babbled past the map's edge (`core.dual.goal_babbling`); novelty — the same with the
   regions' prediction error instead of progress; disagreement — with an ensemble's variance; babbling — the
-  progress planner with only its babbled goals.
+  progress planner with only its babbled goals; each of them adds the learner's value at the plan's end
+  (item 23); value — the predicted return and that terminal value, no aim.
 - imagination (`Imagination`): paper (= the released code) — the act-time rollout in B_latent, all kept, no
   termination head; repaired — learn-time rollouts, the no-change gate, a termination head;
   repaired_no_termination — repaired without the head, the one combination a shipped experiment ran that is
@@ -188,6 +189,15 @@ class Planner:
     """Where the pull points (`core.dual.goal_babbling`): the aim's goal alone; the aim's goal with a share of
     goals drawn uniformly past the map's edge in its place; or only those babbled goals (none in between:
     the actor acts), with the aim's contrast as the pull's length."""
+    terminal: bool = False
+    """Whether the learner's value at the plan's end, γ^H V(φ̂_H), joins the predicted return (only with
+    ``objective="return"``; `core.dual.planning.TerminalValue`, docs/dual-system.md item 23): with it the
+    extrinsic term sees past the plan's d_max steps, so once the critic has learnt a reward the plan is pulled
+    where the actor already goes; before any reward V is flat and the aim points the plan."""
+
+    def __post_init__(self) -> None:
+        if self.terminal and self.objective != "return":
+            raise ValueError("a terminal value joins the predicted return only (objective='return')")
 
     @property
     def babbles(self) -> bool:
@@ -247,18 +257,21 @@ PLANNER: dict[str, Planner] = {
     "released": Planner(objective="per_step", optimiser="sgd", clip="executed"),
     "repaired": Planner(objective="sum", optimiser="normalised", clip="every_step"),
     "progress": Planner(objective="return", optimiser="normalised", clip="every_step", aim="progress",
-                        goals="aim_and_babbled"),
+                        goals="aim_and_babbled", terminal=True),
     "novelty": Planner(objective="return", optimiser="normalised", clip="every_step", aim="novelty",
-                       goals="aim_and_babbled"),
+                       goals="aim_and_babbled", terminal=True),
     "disagreement": Planner(objective="return", optimiser="normalised", clip="every_step",
-                            aim="disagreement", goals="aim_and_babbled"),
+                            aim="disagreement", goals="aim_and_babbled", terminal=True),
     "babbling": Planner(objective="return", optimiser="normalised", clip="every_step", aim="progress",
-                        goals="babbled"),
+                        goals="babbled", terminal=True),
+    "value": Planner(objective="return", optimiser="normalised", clip="every_step", terminal=True),
 }
 """``progress`` and ``novelty`` are no reading of the text or the code: planners that aim before the first
 reward (issue 50; docs/dual-system.md, "A planner that aims"). ``novelty`` is the ablation that replaces
 learning progress by prediction error; ``disagreement`` the peer that aims at the models' uncertainty;
-``babbling`` the ablation that removes the progress goal and keeps the babbled ones."""
+``babbling`` the ablation that removes the progress goal and keeps the babbled ones; ``value`` the ablation
+that turns the aim off and keeps the rest (the predicted return and the terminal value: item 23's planner with
+its progress term off)."""
 IMAGINATION: dict[str, Imagination] = {
     "paper": Imagination(source="act_time", gate="none", termination=False),
     "repaired": Imagination(source="learn_time", gate="no_change_ratio", termination=True),

@@ -171,6 +171,14 @@ class LearnerAgent:
         """The executed action: the learner's exploration around ``action`` (Algorithm 2, line 20)."""
         return self.learner.explore(action, latent[0], self.steps, self.rng).astype(np.float32), {}
 
+    def value_and_gradient(self, latent: np.ndarray) -> tuple[float, np.ndarray]:
+        """V(φ) = Q(φ, μ(φ)) of the online critic (twins: the smaller) and ∇_φ V through the critic and μ, of
+        one latent ``[latent]`` (float64 in and out): what a dual planner reads at its plan's end
+        (`core.dual.planning.TerminalValue`). The networks' weights get no gradient."""
+        phi = torch.as_tensor(latent, dtype=torch.float32, device=self.device).reshape(1, -1)
+        value, grad = self.learner.value_and_gradient(phi)
+        return float(value[0]), grad[0].double().cpu().numpy()
+
     def start_value(self, obs: np.ndarray) -> float:
         """The critic's value of the policy's action at ``obs`` (twins: the smaller)."""
         return float(self.learner.value_of(self.encode(obs).to(self.device))[0])

@@ -445,3 +445,64 @@ def test_the_plan_bench_times_both_readings_on_a_node_with_an_action_map() -> No
     assert set(result["ms_per_decision"]) == {"no_aim", "aim"}
     assert result["horizon"] >= 1 and result["stored_transitions"] >= 4 * (2 + 3 + 1)
     assert result["ratio_aim_to_no_aim"] > 0.0
+
+
+def test_a_terminal_value_enters_the_plan_objective_with_its_exact_gradient() -> None:
+    """Item 23: with a `TerminalValue` the plan's loss falls by γ^H V(φ̂_H), φ̂_H the latent the plan's models
+    predict at its end, and the hand-written back-propagation (started from ∇V instead of 0) matches finite
+    differences; a planner reading refuses a terminal value without the return objective."""
+    from core.dual.planning import OBJECTIVES, TerminalValue, _PlanModel
+
+    bank, nodes, phi, plan = _random_setup()
+    model = _PlanModel(bank, nodes)
+    start, actions = phi.double().numpy(), plan.double().numpy()
+    target = np.array([0.5, -0.2, 0.1, 0.3])
+
+    def value(latent: np.ndarray) -> tuple[float, np.ndarray]:
+        return float(-((latent - target) ** 2).sum()), -2.0 * (latent - target)
+
+    terminal = TerminalValue(value, discount=0.9)
+    bare, bare_grad = model.loss_and_grad(start, actions, OBJECTIVES["return"], 1.0)
+    loss, grad = model.loss_and_grad(start, actions, OBJECTIVES["return"], 1.0, terminal=terminal)
+    end = start
+    for h in range(actions.shape[0]):
+        end = bank.local_model.numpy().forward(model.steps[h], end, actions[h]).latent
+    assert loss == pytest.approx(bare - 0.9 ** actions.shape[0] * value(end)[0], rel=1e-12)
+    assert not np.allclose(grad, bare_grad)
+    eps = 1e-6
+    for h in range(actions.shape[0]):
+        up, down = actions.copy(), actions.copy()
+        up[h, 0] += eps
+        down[h, 0] -= eps
+        numeric = (model.loss_and_grad(start, up, OBJECTIVES["return"], 1.0, terminal=terminal)[0]
+                   - model.loss_and_grad(start, down, OBJECTIVES["return"], 1.0, terminal=terminal)[0])
+        numeric /= 2 * eps
+        assert grad[h, 0] == pytest.approx(numeric, rel=1e-4, abs=1e-7)
+    with pytest.raises(ValueError, match="return"):
+        Planner(objective="sum", optimiser="normalised", clip="every_step", terminal=True)
+    aiming = ("progress", "novelty", "disagreement", "babbling", "value")
+    assert all(PLANNER[name].terminal for name in aiming)
+    assert not any(PLANNER[name].terminal for name in ("paper", "released", "repaired"))
+    assert PLANNER["value"].aim == "none"
+
+
+def test_the_learners_value_gradient_is_exact_and_leaves_the_weights_alone() -> None:
+    """`Learner.value_and_gradient`: V(φ) = min_i Q_i(φ, μ(φ)) equals `value_of`, its gradient w.r.t. φ
+    (through the critic and μ) matches finite differences in float64, and no parameter gets a ``.grad``."""
+    from core.envs.spec import EnvSpec
+    from core.modelfree.learners import make_learner
+
+    torch.manual_seed(0)
+    config = load_config("vector", ["net.mlp_hidden=16,16", "agent.ac=sac"])
+    spec = EnvSpec(obs_shape=(3,), action_dim=2, obs_kind="vector", obs_dtype="float32")
+    learner = make_learner(config.net, config.agent, spec).double()
+    phi = torch.randn(2, learner.latent_dim, dtype=torch.float64)
+    value, grad = learner.value_and_gradient(phi)
+    torch.testing.assert_close(value, learner.value_of(phi))
+    eps = 1e-6
+    for i in range(learner.latent_dim):
+        step = torch.zeros_like(phi)
+        step[:, i] = eps
+        numeric = (learner.value_of(phi + step) - learner.value_of(phi - step)) / (2 * eps)
+        torch.testing.assert_close(grad[:, i], numeric, rtol=1e-5, atol=1e-7)
+    assert all(p.grad is None for p in learner.parameters())

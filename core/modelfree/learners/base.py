@@ -276,6 +276,16 @@ class Learner(nn.Module):
         the start-state value the trainer logs beside the discounted return actually earned."""
         return self.q_value(latent, self.actor(latent))
 
+    def value_and_gradient(self, latent: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """`value_of` ``[N]`` and its gradient w.r.t. the latent ``[N, latent]``, through the critic and the
+        deterministic action μ(φ) alike; the parameters' ``.grad`` stay untouched."""
+        with torch.enable_grad():
+            phi = latent.detach().requires_grad_(True)
+            q = self.critic(phi, self.actor(phi))
+            value = q if q.dim() == 1 else q.min(dim=0).values
+            (grad,) = torch.autograd.grad(value.sum(), phi)
+        return value.detach(), grad
+
     # -- persistence -----------------------------------------------------------------------------
     def optimizers(self) -> dict[str, Any]:
         """The optimisers by name (SAC adds its temperature's)."""

@@ -62,6 +62,27 @@ class TerminalValue:
     discount: float
     """γ: the value H steps ahead counts γ^H."""
 
+    def linearised(self) -> TerminalValue:
+        """V's first-order expansion at the first latent it is read at, V(φ₀) + ∇V(φ₀)·(φ − φ₀): what
+        `optimise_plan` reads during its K steps, so the learner's networks run once per plan (as the local
+        models' weights, V is held fixed while the plan moves; at the first step it is exact)."""
+        return TerminalValue(_FirstOrder(self.value), self.discount)
+
+
+class _FirstOrder:
+    """A value function's first-order expansion at the first point it is called at."""
+
+    def __init__(self, value: Callable[[np.ndarray], tuple[float, np.ndarray]]) -> None:
+        self.value = value
+        self.anchor: tuple[np.ndarray, float, np.ndarray] | None = None
+
+    def __call__(self, latent: np.ndarray) -> tuple[float, np.ndarray]:
+        if self.anchor is None:
+            value, grad = self.value(latent)
+            self.anchor = (np.array(latent, dtype=np.float64), float(value), np.asarray(grad, np.float64))
+        at, value, grad = self.anchor
+        return value + float(grad @ (latent - at)), grad
+
 
 def sum_objective(rewards: np.ndarray, r_star: float) -> tuple[float, np.ndarray]:
     """Eq. 6 as printed: L_plan = (R* − Σ_h r̂_h)²."""
@@ -198,12 +219,14 @@ def optimise_plan(
     """Eq. 7: K steps on L_plan from the rollout's actions, as ``planner`` reads them (module docstring);
     with ``aim``, L_plan − ``aim_scale`` · Σ_h g(φ̃_{h+1}) (`RegionGoal.plan_term`: the planner's aim, its
     latents predicted by the start node's action map); with ``terminal``, also − γ^H V(φ̂_H) (`TerminalValue`:
-    the learner's value of where the plan ends)."""
+    the learner's value of where the plan ends, expanded to first order where the initial plan ends)."""
     if rollout.depth == 0:
         raise ValueError("optimise_plan needs a rollout of depth >= 1 (the meta-controller chose model-free)")
     objective, step = OBJECTIVES[planner.objective], STEPS[planner.optimiser]
     project = planner.clip == "every_step"
     model = _PlanModel(bank, rollout.nodes)
+    if terminal is not None:
+        terminal = terminal.linearised()
     start = torch.as_tensor(phi, dtype=torch.float64).reshape(-1).numpy()
     plan = rollout.actions.detach().to(torch.float64).numpy().copy()
     if project:

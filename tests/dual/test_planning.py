@@ -506,3 +506,27 @@ def test_the_learners_value_gradient_is_exact_and_leaves_the_weights_alone() -> 
         numeric = (learner.value_of(phi + step) - learner.value_of(phi - step)) / (2 * eps)
         torch.testing.assert_close(grad[:, i], numeric, rtol=1e-5, atol=1e-7)
     assert all(p.grad is None for p in learner.parameters())
+
+
+def test_a_plan_reads_the_learners_value_once_and_moves_toward_a_higher_value() -> None:
+    """`optimise_plan` expands V to first order where the initial plan ends (`TerminalValue.linearised`):
+    the learner's value runs once per plan whatever K; with no reward to follow (the models predict r̂ = 0
+    for every action), K steps raise the expanded γ^H V of where the plan ends."""
+    from core.dual.planning import TerminalValue
+
+    bank, nodes, phi, plan = _random_setup()
+    for name in ("wr", "br"):
+        bank.params[name].zero_()
+    calls = []
+    direction = np.array([1.0, -0.5, 0.2, 0.3])
+
+    def value(latent: np.ndarray) -> tuple[float, np.ndarray]:
+        calls.append(latent.copy())
+        return float(direction @ latent), direction
+
+    rollout = Rollout(latents=phi[None].repeat(4, 1), actions=plan, rewards=torch.zeros(4),
+                      next_latents=phi[None].repeat(4, 1), nodes=nodes)
+    result = optimise_plan(phi, rollout, bank, PLANNER["value"], steps=10, lr=0.05,
+                           terminal=TerminalValue(value, discount=0.99))
+    assert len(calls) == 1
+    assert result.final_loss < result.initial_loss  # the loss is −γ^H V (no reward): V went up

@@ -80,15 +80,23 @@ def test_study_4_noisy_tv_table_of_a5ecd29s_babbling_is_what_the_archive_gives()
     assert table["SAC"]["seeds"] == [100, 101, 102, 103, 104]
 
 
-def test_study_4_noisy_tv_table_of_item_21_is_what_the_archive_gives():
-    """docs/results.md's item-21 table (8ce8741's babbling, pink noise beside it) is the command's output on
-    results/study4-noisy-tv-tuning, against SAC, SAC+RND and SAC-pink; the README's figures are from it."""
-    table = published_table("study4-noisy-tv-tuning", ["SAC", "SAC+RND", "SAC-pink"])
-    assert {"SAC-pink", "SAC+IM2C-progress", "SAC+IM2C-babbling"} <= set(table)
-    assert table["SAC-pink"]["seeds"] == [100, 101, 102, 103, 104]
+def test_study_4_noisy_tv_table_of_items_21_22_is_what_the_archive_gives():
+    """docs/results.md's item-22 table (every tuning cell of 8ce8741's babbling, the ablations on top of pink
+    noise beside it) is the command's output on results/study4-noisy-tv-tuning-8ce8741, against SAC, SAC+RND
+    and SAC-pink; the README's figures are from it."""
+    table = published_table("study4-noisy-tv-tuning-8ce8741", ["SAC", "SAC+RND", "SAC-pink"])
+    assert sorted(table) == ["SAC", "SAC+IM2C", "SAC+IM2C-babbling", "SAC+IM2C-disagreement",
+                             "SAC+IM2C-progress", "SAC+RND", "SAC-pink", "SAC-pink+IM2C",
+                             "SAC-pink+IM2C-babbling", "SAC-pink+IM2C-progress"]
+    assert all(row["seeds"] == [100, 101, 102, 103, 104] for row in table.values())
     iqm = {label: f"{row['coverage_rest_iqm']['iqm']:.3f}" for label, row in table.items()}
+    noise = {label: f"{row['noise_share_iqm']['iqm']:.3f}" for label, row in table.items()}
     readme = (ROOT / "README.md").read_text()
     assert f"coverage {iqm['SAC+IM2C-progress']} against SAC's {iqm['SAC']}" in readme
     assert f"the babbled goals alone, covers as much ({iqm['SAC+IM2C-babbling']})" in readme
     assert f"the noisy TV's coverage {iqm['SAC-pink']}" in readme
+    assert (f"late noise share {noise['SAC-pink+IM2C-progress']} against pink alone's {noise['SAC-pink']}"
+            in readme)
     assert table["SAC+IM2C-progress"]["noise_share"] == [0.0] * 5
+    pink, progress = table["SAC-pink"]["noise_share"], table["SAC-pink+IM2C-progress"]["noise_share"]
+    assert sum(p < q for p, q in zip(progress, pink, strict=True)) == 4  # "lower on 4 of 5 seeds"

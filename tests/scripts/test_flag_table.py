@@ -64,17 +64,26 @@ def test_a5ecd29s_mountaincar_rows_match_the_archive():
     assert_published(rows)
 
 
-def test_the_peers_mountaincar_rows_match_the_archive():
-    """Item 21's MountainCar table (the peers' cells, which no planner reading touches): docs/results.md
-    prints each row of `scripts/flag_table.py` on results/study4-mountaincar-tuning; pink noise on our SAC
-    finds the flag on each tuning seed."""
-    rows = load_script("flag_table").flag_rows(ROOT / "results" / "study4-mountaincar-tuning")
+def test_the_mountaincar_rows_of_8ce8741_match_the_archive():
+    """Items 21-22's MountainCar tables (the peers and the planner on top of pink noise, every tuning cell
+    of 8ce8741): docs/results.md prints each row of `scripts/flag_table.py --late` on
+    results/study4-mountaincar-tuning-8ce8741, both tables; pink noise on our SAC finds the flag on each
+    tuning seed, and over the late half every planner cell decides most steps and moves the actor's action
+    by about 0.4."""
+    script = load_script("flag_table")
+    archive = ROOT / "results" / "study4-mountaincar-tuning-8ce8741"
+    rows, late = script.flag_rows(archive), script.late_rows(archive)
     pink = [r for r in rows if r["method"] == "SAC-pink"]
     assert [r["seed"] for r in pink] == ["100", "101", "102"]
     assert all(r["first flag (env step)"] != "–" for r in pink)
     assert_published(rows)
+    assert_published(late)
     flags = ", ".join(r["first flag (env step)"] for r in pink)
     assert f"first at env step {flags})" in (ROOT / "README.md").read_text()  # the README's pink figures
+    planned = [r for r in late if r["method"].startswith("SAC-pink+IM2C")]
+    assert len(planned) == 12
+    assert all(float(r["planner's share of decisions"]) >= 0.6 for r in planned)
+    assert all(0.4 <= float(r["mean plan shift of the action"]) <= 0.45 for r in planned)
 
 
 def test_late_rows_average_the_late_half_and_read_the_planner_where_there_is_one(tmp_path):

@@ -30,6 +30,10 @@ are [−1, 1]. The planner's reading (``dual.planner``, `core.dual.readings.Plan
 - ``optimiser="normalised"``: the gradient scaled to length α over the whole plan (α in action units), and
   ``clip="every_step"``: every action of the plan is projected onto the bounds after every step (projected
   gradient descent), so the later steps of the plan are optimised for actions that can be executed.
+
+A reading with ``terminal`` (the aiming planners since item 23 of docs/dual-system.md) adds the learner's
+value where the plan ends, γ^H V(φ̂_H) (`TerminalValue`), to the predicted return: the back-propagation
+through the models starts from its gradient instead of 0.
 """
 
 from __future__ import annotations

@@ -193,7 +193,8 @@ class Planner:
     """Whether the learner's value at the plan's end, γ^H V(φ̂_H), joins the predicted return (only with
     ``objective="return"``; `core.dual.planning.TerminalValue`, docs/dual-system.md item 23): with it the
     extrinsic term sees past the plan's d_max steps, so once the critic has learnt a reward the plan is pulled
-    where the actor already goes; before any reward V is flat and the aim points the plan."""
+    where the actor already goes. Before any reward V is not flat (SAC's soft value carries the entropy
+    bonus), and the normalised step gives its gradient a full share of the step (item 23's noisy-TV cells)."""
 
     def __post_init__(self) -> None:
         if self.terminal and self.objective != "return":

@@ -100,3 +100,20 @@ def test_study_4_noisy_tv_table_of_items_21_22_is_what_the_archive_gives():
     assert table["SAC+IM2C-progress"]["noise_share"] == [0.0] * 5
     pink, progress = table["SAC-pink"]["noise_share"], table["SAC-pink+IM2C-progress"]["noise_share"]
     assert sum(p < q for p, q in zip(progress, pink, strict=True)) == 4  # "lower on 4 of 5 seeds"
+
+
+def test_item_23s_noisy_tv_table_is_what_the_archive_gives():
+    """docs/results.md's item-23 table (the value at the plan's end, 9d0074a, beside the carried-over cells no
+    planner reading touches) is the command's output on results/study4-noisy-tv-tuning; the README's
+    figures are from it: the value costs coverage against pink alone on every seed."""
+    table = published_table("study4-noisy-tv-tuning", ["SAC", "SAC+RND", "SAC-pink"])
+    assert {"SAC-pink+IM2C-progress", "SAC-pink+IM2C-value", "SAC-pink"} <= set(table)
+    assert "SAC+IM2C-progress" not in table  # the 8ce8741 cells are item 22's archive
+    pink = table["SAC-pink"]["coverage_rest"]
+    for label in ("SAC-pink+IM2C-progress", "SAC-pink+IM2C-value"):
+        assert table[label]["seeds"] == [100, 101, 102, 103, 104]
+        assert all(c < p for c, p in zip(table[label]["coverage_rest"], pink, strict=True))
+    iqm = {label: f"{row['coverage_rest_iqm']['iqm']:.3f}" for label, row in table.items()}
+    readme = (ROOT / "README.md").read_text()
+    progress, alone = iqm["SAC-pink+IM2C-progress"], iqm["SAC-pink"]
+    assert f"progress planner on pink {progress} against pink's {alone}" in readme

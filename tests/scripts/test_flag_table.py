@@ -86,6 +86,28 @@ def test_the_mountaincar_rows_of_8ce8741_match_the_archive():
     assert all(0.4 <= float(r["mean plan shift of the action"]) <= 0.45 for r in planned)
 
 
+def test_item_23s_mountaincar_rows_match_the_archive():
+    """Item 23's MountainCar tables (the value at the plan's end, 9d0074a, beside the carried-over peers):
+    docs/results.md prints each row of `scripts/flag_table.py --late` on results/study4-mountaincar-tuning;
+    the planner with the aim off reaches greedy >= 90 before pink alone on each seed, and no planner cell of
+    this reading moves the actor's action by more than 0.15 over the late half (8ce8741: 0.42)."""
+    script = load_script("flag_table")
+    archive = ROOT / "results" / "study4-mountaincar-tuning"
+    rows, late = script.flag_rows(archive), script.late_rows(archive)
+    assert_published(rows)
+    assert_published(late)
+
+    def greedy(method: str) -> list[int]:
+        column = "first greedy ≥ 90 (env step)"
+        return [int(r[column].replace(" ", "")) for r in rows if r["method"] == method]
+
+    assert len(greedy("SAC-pink+IM2C-value")) == 3
+    assert all(v < p for v, p in zip(greedy("SAC-pink+IM2C-value"), greedy("SAC-pink"), strict=True))
+    shifts = [float(r["mean plan shift of the action"]) for r in late
+              if r["method"] in ("SAC-pink+IM2C-value", "SAC-pink+IM2C-progress-0.5")]
+    assert len(shifts) == 6 and max(shifts) <= 0.15
+
+
 def test_late_rows_average_the_late_half_and_read_the_planner_where_there_is_one(tmp_path):
     """The late half is the episodes that ended past half the last env step; the planner's share is its
     decisions over all decisions; a model-free cell has "–" for both planner columns."""

@@ -96,6 +96,11 @@ def soft_update(target: nn.Module, online: nn.Module, tau: float) -> None:
         torch._foreach_lerp_(target_params, online_params, tau)
 
 
+def smaller_twin(q: torch.Tensor) -> torch.Tensor:
+    """A critic's output ``[N]`` or twins' ``[2, N]`` read as one value per row: the smaller twin."""
+    return q if q.dim() == 1 else q.min(dim=0).values
+
+
 def td_loss(q: torch.Tensor, target: torch.Tensor, twin_weight: float = 0.5) -> torch.Tensor:
     """Mean squared TD error of Eq. 1: ``q`` ``[N]`` (one critic) or ``[2, N]`` (twins: ``twin_weight`` · Σ_i
     mean_i, the learner's ``twin_loss_weight``)."""
@@ -267,8 +272,7 @@ class Learner(nn.Module):
     @torch.no_grad()
     def q_value(self, latent: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         """The online critic's Q(φ, a) (twins: the smaller), ``[N]``."""
-        q = self.critic(latent, action)
-        return q if q.dim() == 1 else q.min(dim=0).values
+        return smaller_twin(self.critic(latent, action))
 
     @torch.no_grad()
     def value_of(self, latent: torch.Tensor) -> torch.Tensor:
@@ -281,8 +285,7 @@ class Learner(nn.Module):
         deterministic action μ(φ) alike; the parameters' ``.grad`` stay untouched."""
         with torch.enable_grad():
             phi = latent.detach().requires_grad_(True)
-            q = self.critic(phi, self.actor(phi))
-            value = q if q.dim() == 1 else q.min(dim=0).values
+            value = smaller_twin(self.critic(phi, self.actor(phi)))
             (grad,) = torch.autograd.grad(value.sum(), phi)
         return value.detach(), grad
 

@@ -7,7 +7,9 @@ order: :meth:`DualSystem.locate` (Alg. 2 lines 10-11; it returns the step's star
 the agent keeps until the step's transition arrives), :meth:`DualSystem.decide` (12-19),
 :meth:`DualSystem.observe` (22-25: r_int, r = r_ext + r_int into the agent's replay, one Eq. 5 step; and the
 refit repair when due), :meth:`DualSystem.diagnostics` at each episode's end. The readings of every mechanism
-(`core.dual.readings`) are resolved once, here, and handed to the world models and the planner alike.
+(`core.dual.readings`) are resolved once, here, and handed to the world models and the planner alike; so is
+the learner's value, which a planner reading with ``terminal`` reads at its plans' ends once the run has seen
+a positive extrinsic reward (:meth:`DualSystem.terminal_value`, docs/dual-system.md item 24).
 
 Per-episode diagnostics (the data behind Fig. 9), keys ``dual/…``: ``model_error`` (mean Eq. 8 error of the
 real transitions), ``no_change_error`` (the same error of the predictor φ̂′ = φ_t, r̂ = 0: the latent scale
@@ -92,6 +94,7 @@ class DualSystem:
         regions: bool = True,
         arbitration: bool = True,
         fixed_horizon: int | None = None,
+        value: TerminalValue | None = None,
     ) -> None:
         self.config = dual
         self.readings: Readings = resolve(dual)
@@ -99,6 +102,10 @@ class DualSystem:
         self.rng = rng
         """The run's generator (the agent's): the refit's replay draws."""
         self.encode = encode
+        self.value = value
+        """The learner's value and its gradient (the agent's), for a planner reading with ``terminal``."""
+        self.rewarded = False
+        """Whether a positive extrinsic reward was seen: only then does ``value`` join plans (item 24)."""
         model_seed = int(rng.integers(0, 2**62))
         self.world = LocalWorldModels(dual, latent_dim, action_dim, regions=regions,
                                       generator=torch.Generator().manual_seed(model_seed),
@@ -117,15 +124,15 @@ class DualSystem:
         matched."""
         return StepStart(phi=phi, node=self.world.observe_state(phi[0]))
 
-    def decide(self, start: StepStart, actor: ActorFn,
-               terminal: TerminalValue | None = None) -> tuple[np.ndarray, Rollout | None]:
-        """Lines 12-19: the meta-controller's action before exploration, and its rollout when model-based
-        (``terminal``: the learner's value, for a planner that reads it at the plan's end)."""
+    def decide(self, start: StepStart, actor: ActorFn) -> tuple[np.ndarray, Rollout | None]:
+        """Lines 12-19: the meta-controller's action before exploration, and its rollout when model-based.
+        A planner whose reading has ``terminal`` reads the learner's value at the plan's end once the run has
+        seen a positive extrinsic reward (`terminal_value`)."""
         phi, node = start.phi, start.node
         if self.meta is None:
             self._count_model_free()
             return actor(phi)[0].numpy(), None
-        decision = self.meta.decide(phi, node, actor, terminal)
+        decision = self.meta.decide(phi, node, actor, self.terminal_value())
         if decision.aim is not None:
             self.counters.aim_weights.append(decision.aim.weight)
             self.counters.babbled += int(decision.aim.babbled)
@@ -139,6 +146,16 @@ class DualSystem:
             return decision.action.numpy(), decision.rollout
         self._count_model_free()
         return decision.action.numpy(), None
+
+    def terminal_value(self) -> TerminalValue | None:
+        """The learner's value for the plan's end, or None before the first positive extrinsic reward
+        (docs/dual-system.md, item 24): until the critic has seen a reward beyond the action cost its value
+        carries only SAC's entropy bonus (and the cost's echo), whose gradient the normalised Eq. 7 step would
+        follow at full length — on the noisy TV, with no reward at all, that cost coverage (item 23). A reward
+        > 0 is the sign of a goal in the sparse tasks (MountainCar's flag, the grasp, the swing-up's and the
+        reacher's target); a task whose rewards are all costs (≤ 0) never opens it, and its planner keeps the
+        predicted costs of its d_max steps."""
+        return self.value if self.rewarded else None
 
     def _count_model_free(self) -> None:
         self.counters.mf_decisions += 1
@@ -177,6 +194,7 @@ class DualSystem:
         """Lines 22 and 25: the Eq. 8 error of M_n, R_n before their update, LP of n, one Eq. 5 step; returns
         r_int of the transition (line 22, ``dual.intrinsic``)."""
         phi, reward = start.phi, transition.reward
+        self.rewarded = self.rewarded or reward > 0.0
         action = torch.as_tensor(transition.action, dtype=torch.float32)
         feedback = self.world.learn_transition(start.node, phi[0], action, reward, next_phi[0],
                                                transition.terminated)
@@ -256,6 +274,7 @@ class DualSystem:
             "total_imagined": self.total_imagined,
             "total_mb_decisions": self.total_mb_decisions,
             "total_mf_decisions": self.total_mf_decisions,
+            "rewarded": self.rewarded,
         }
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
@@ -263,3 +282,4 @@ class DualSystem:
         self.total_imagined = int(state["total_imagined"])
         self.total_mb_decisions = int(state["total_mb_decisions"])
         self.total_mf_decisions = int(state["total_mf_decisions"])
+        self.rewarded = bool(state.get("rewarded", False))  # checkpoints before item 24: none seen

@@ -50,20 +50,19 @@ class I2A(LearnerAgent):
         # Line 5: B_pixel (``agent.buffer_size``, every method's real replay); B_latent is the imagination's.
         self.replay = PixelReplay(config.agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)
         self.dual = DualSystem(config.dual, latent_dim, spec.action_dim, rng, self.encode_batch,  # lines 6-7
-                               arbitration=arbitration)
+                               arbitration=arbitration,
+                               value=TerminalValue(self.value_and_gradient, config.agent.gamma))
         self.imagination = make_imagination(self.dual, self.actor, rng, stop, self.encode_batch, latent_dim,
                                             spec.action_dim)
         self.start: StepStart | None = None
         """φ_t and n of the step in progress, from ``act`` to ``observe``."""
-        self.terminal_value = TerminalValue(self.value_and_gradient, config.agent.gamma)
-        """The critic's value at a plan's end, for a planner that reads it (docs/dual-system.md, item 23)."""
 
     def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
         phi = self.encode(obs)  # line 9
         if not explore:
             return self.greedy(phi)
         self.start = self.dual.locate(phi)  # lines 10-11
-        action, rollout = self.dual.decide(self.start, self.actor, self.terminal_value)  # lines 12-19
+        action, rollout = self.dual.decide(self.start, self.actor)  # lines 12-19
         self.imagination.after_decide(self.start, rollout)  # lines 13-21 (line 17)
         return self.explore(action, phi)  # line 20
 

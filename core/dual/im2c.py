@@ -46,18 +46,17 @@ class IM2C(LearnerAgent):
         agent = config.agent
         self.replay = PixelReplay(agent.buffer_size, spec.obs_shape, spec.action_dim, spec.obs_dtype)  # 4
         self.dual = DualSystem(config.dual, self.learner.latent_dim, spec.action_dim, rng,  # lines 5-6
-                               self.encode_batch, regions=regions, fixed_horizon=fixed_horizon)
+                               self.encode_batch, regions=regions, fixed_horizon=fixed_horizon,
+                               value=TerminalValue(self.value_and_gradient, agent.gamma))
         self.start: StepStart | None = None
         """φ_t and n of the step in progress, from ``act`` to ``observe``."""
-        self.terminal_value = TerminalValue(self.value_and_gradient, agent.gamma)
-        """The critic's value at a plan's end, for a planner that reads it (docs/dual-system.md, item 23)."""
 
     def act(self, obs: np.ndarray, explore: bool) -> tuple[np.ndarray, dict[str, float]]:
         phi = self.encode(obs)  # line 9
         if not explore:
             return self.greedy(phi)
         self.start = self.dual.locate(phi)  # lines 10-11
-        action, _ = self.dual.decide(self.start, self.actor, self.terminal_value)  # lines 12-19
+        action, _ = self.dual.decide(self.start, self.actor)  # lines 12-19
         return self.explore(action, phi)  # line 20
 
     def observe(self, transition: Transition) -> None:

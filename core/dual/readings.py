@@ -193,8 +193,10 @@ class Planner:
     """Whether the learner's value at the plan's end, γ^H V(φ̂_H), joins the predicted return (only with
     ``objective="return"``; `core.dual.planning.TerminalValue`, docs/dual-system.md item 23): with it the
     extrinsic term sees past the plan's d_max steps, so once the critic has learnt a reward the plan is pulled
-    where the actor already goes. Before any reward V is not flat (SAC's soft value carries the entropy
-    bonus), and the normalised step gives its gradient a full share of the step (item 23's noisy-TV cells)."""
+    where the actor already goes. It joins from the run's first positive extrinsic reward on
+    (`core.dual.dual_system.DualSystem.terminal_value`, item 24): before, V is not flat (SAC's soft value
+    carries the entropy bonus) and the normalised step gave its gradient a full share of the step (item 23's
+    noisy-TV cells)."""
 
     def __post_init__(self) -> None:
         if self.terminal and self.objective != "return":

@@ -472,3 +472,37 @@ def test_i2a_without_its_planner_is_refused_with_the_fix() -> None:
 def test_dual_settings_that_make_no_sense_together_are_refused(overrides: list[str], fix: str) -> None:
     with pytest.raises(ConfigError, match=re.escape(fix)):
         check_config(load_config("default", ["run.steps=10", *overrides]))
+
+
+@pytest.mark.parametrize("algo", ["im2c", "i2a"])
+def test_the_learners_value_joins_plans_only_after_a_positive_extrinsic_reward(algo: str) -> None:
+    """Item 24 (docs/dual-system.md): a planner reading with ``terminal`` plans without the learner's value
+    while every reward seen is a cost (≤ 0) and with it from the first positive reward on; a checkpoint keeps
+    which."""
+    from core.dual.planning import TerminalValue
+
+    agent = _agent(algo, *LITERAL, "agent.ac=sac", "dual.planner=value")
+    reads = []
+    value_fn = agent.dual.value.value
+
+    def counted(latent: np.ndarray) -> tuple[float, np.ndarray]:
+        reads.append(latent)
+        return value_fn(latent)
+
+    agent.dual.value = TerminalValue(counted, agent.dual.value.discount)
+    obs = _obs(5)
+    agent.begin_episode(obs)
+    for _ in range(60):
+        _step(agent, obs, reward=-0.25)
+    planned = agent.dual.total_mb_decisions
+    assert planned > 0 and reads == [] and agent.dual.terminal_value() is None
+    _step(agent, obs, reward=1.0)
+    assert agent.dual.terminal_value() is agent.dual.value
+    before = agent.dual.total_mb_decisions
+    for _ in range(20):
+        _step(agent, obs, reward=-0.25)  # costs again: the gate stays open
+    assert len(reads) == agent.dual.total_mb_decisions - before > 0  # one read per plan
+    clone = _agent(algo, *LITERAL, "agent.ac=sac", "dual.planner=value")
+    assert clone.dual.terminal_value() is None
+    clone.load_state_dict(agent.state_dict())
+    assert clone.dual.rewarded and clone.dual.terminal_value() is clone.dual.value

@@ -104,9 +104,9 @@ def test_study_4_noisy_tv_table_of_items_21_22_is_what_the_archive_gives():
 
 def test_item_23s_noisy_tv_table_is_what_the_archive_gives():
     """docs/results.md's item-23 table (the value at the plan's end, 9d0074a, beside the carried-over cells no
-    planner reading touches) is the command's output on results/study4-noisy-tv-tuning; the README's
+    planner reading touches) is the command's output on results/study4-noisy-tv-tuning-9d0074a; the README's
     figures are from it: the value costs coverage against pink alone on every seed."""
-    table = published_table("study4-noisy-tv-tuning", ["SAC", "SAC+RND", "SAC-pink"])
+    table = published_table("study4-noisy-tv-tuning-9d0074a", ["SAC", "SAC+RND", "SAC-pink"])
     assert {"SAC-pink+IM2C-progress", "SAC-pink+IM2C-value", "SAC-pink"} <= set(table)
     assert "SAC+IM2C-progress" not in table  # the 8ce8741 cells are item 22's archive
     pink = table["SAC-pink"]["coverage_rest"]

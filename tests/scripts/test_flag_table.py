@@ -88,11 +88,12 @@ def test_the_mountaincar_rows_of_8ce8741_match_the_archive():
 
 def test_item_23s_mountaincar_rows_match_the_archive():
     """Item 23's MountainCar tables (the value at the plan's end, 9d0074a, beside the carried-over peers):
-    docs/results.md prints each row of `scripts/flag_table.py --late` on results/study4-mountaincar-tuning;
-    the planner with the aim off reaches greedy >= 90 before pink alone on each seed, and no planner cell of
-    this reading moves the actor's action by more than 0.15 over the late half (8ce8741: 0.42)."""
+    docs/results.md prints each row of `scripts/flag_table.py --late` on
+    results/study4-mountaincar-tuning-9d0074a; the planner with the aim off reaches greedy >= 90 before pink
+    alone on each seed, and no planner cell of this reading moves the actor's action by more than 0.15
+    over the late half (8ce8741: 0.42)."""
     script = load_script("flag_table")
-    archive = ROOT / "results" / "study4-mountaincar-tuning"
+    archive = ROOT / "results" / "study4-mountaincar-tuning-9d0074a"
     rows, late = script.flag_rows(archive), script.late_rows(archive)
     assert_published(rows)
     assert_published(late)

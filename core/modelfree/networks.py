@@ -346,7 +346,7 @@ class SquashedGaussianActor(Actor):
         return self.mean(features), self.log_std(features).clamp(LOG_STD_MIN, LOG_STD_MAX)
 
     def forward(self, latent: torch.Tensor) -> torch.Tensor:
-        return torch.tanh(self.distribution(latent)[0])
+        return torch.tanh(self.mean(self.trunk(latent)))  # `distribution`'s mean, without the unused log-std
 
     def sample(
         self, latent: torch.Tensor, noise: torch.Tensor | None = None

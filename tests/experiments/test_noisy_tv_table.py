@@ -117,3 +117,15 @@ def test_item_23s_noisy_tv_table_is_what_the_archive_gives():
     readme = (ROOT / "README.md").read_text()
     progress, alone = iqm["SAC-pink+IM2C-progress"], iqm["SAC-pink"]
     assert f"progress planner on pink {progress} against pink's {alone}" in readme
+
+
+def test_item_24s_noisy_tv_table_is_what_the_archive_gives():
+    """docs/results.md's item-24 table is the command's output on the live archive
+    results/study4-noisy-tv-tuning (the 8ce8741 aiming cells carried over, the new c and RND scales beside
+    them); the frozen c = 0.1 planner on pink is item 22's: less late noise than pink alone on 4 of 5
+    seeds."""
+    table = published_table("study4-noisy-tv-tuning", ["SAC", "SAC+RND", "SAC-pink"])
+    assert {"SAC-pink+IM2C-progress", "SAC-pink+IM2C-progress-0.5", "SAC-pink+IM2C-progress-2",
+            "SAC+RND-0.1", "SAC+RND-2"} <= set(table)
+    pink, frozen = table["SAC-pink"]["noise_share"], table["SAC-pink+IM2C-progress"]["noise_share"]
+    assert sum(q < p for q, p in zip(frozen, pink, strict=True)) == 4

@@ -137,3 +137,20 @@ def test_late_rows_average_the_late_half_and_read_the_planner_where_there_is_one
     assert (rows["free"]["late training episodes"], rows["free"]["mean training return"]) == ("1", "80.0")
     free_row = rows["free"]
     assert free_row["planner's share of decisions"] == free_row["mean plan shift of the action"] == "–"
+
+
+def test_item_24s_mountaincar_rows_match_the_archive():
+    """Item 24's MountainCar tables (the value from the first positive reward on, 6c6e4e4): docs/results.md
+    prints each row of `scripts/flag_table.py --late` on results/study4-mountaincar-tuning, and the README's
+    figures for the frozen c = 0.1 against pink alone are the archive's."""
+    script = load_script("flag_table")
+    archive = ROOT / "results" / "study4-mountaincar-tuning"
+    rows, late = script.flag_rows(archive), script.late_rows(archive)
+    assert_published(rows)
+    assert_published(late)
+    column = "first greedy ≥ 90 (env step)"
+    frozen = [r[column] for r in rows if r["method"] == "SAC-pink+IM2C-progress-0.1"]
+    pink = [r[column] for r in rows if r["method"] == "SAC-pink"]
+    assert len(frozen) == len(pink) == 3
+    readme = (ROOT / "README.md").read_text()
+    assert f"({', '.join(frozen)} against {', '.join(pink)})" in readme

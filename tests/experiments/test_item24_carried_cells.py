@@ -49,6 +49,7 @@ def test_mountaincar_cells_equal_item_23s_exactly_where_those_planned_nothing_be
         before = old / cell.relative_to(live)
         if not before.is_dir():
             continue
-        (same if rows(cell) == rows(before) else rerun).append(cell.relative_to(live))
-        assert (rows(cell) == rows(before)) == (planned_before_first_flag(before) == 0.0), cell
+        equal = rows(cell) == rows(before)
+        (same if equal else rerun).append(cell.relative_to(live))
+        assert equal == (planned_before_first_flag(before) == 0.0), cell
     assert len(same) >= 4 and len(rerun) >= 2  # seed 100's readings and the aim-off seed 102; seeds 101-102

@@ -1,0 +1,118 @@
+"""RND's scale for study 4's reporting grids, chosen from its tuning cells by the rule written in
+docs/dual-system.md ("How RND's scale is chosen", committed in 4e5bfef before its remaining tuning cells ran).
+
+RND gets its best scale per task and per measure, over tuning seeds 100-102 of ``agent.rnd_scale`` ∈
+{0.1, 0.5, 2} (labels ``SAC+RND-0.1``, ``SAC+RND`` — the default 0.5 — and ``SAC+RND-2``):
+
+- MountainCar: the most seeds with a final greedy return ≥ 90; ties: the lower median env step of the first
+  greedy return ≥ 90 (a seed without one counts as never); then the smaller scale;
+- noisy TV, noise: the lowest late noise-share IQM; ties (equal at three decimals): the higher coverage IQM;
+- noisy TV, coverage: the highest late coverage IQM; ties: the lower noise-share IQM.
+
+    python scripts/rnd_scale_choice.py results
+
+prints one JSON object: each measure's pick (``null`` while a scale lacks a finished cell on a seed) and the
+figures it was read from.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import statistics
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from core.experiments.noisy_tv_table import method_table
+from core.experiments.statistics import iqm
+
+SEEDS = (100, 101, 102)
+"""The tuning seeds every scale ran."""
+
+LABELS = {0.1: "SAC+RND-0.1", 0.5: "SAC+RND", 2.0: "SAC+RND-2"}
+"""The tuning grids' label of each scale (0.5, the default, has no suffix on the noisy TV)."""
+
+MOUNTAINCAR_LABELS = {0.1: "SAC+RND-0.1", 0.5: "SAC+RND-0.5", 2.0: "SAC+RND-2"}
+"""MountainCar's tuning grid names every scale."""
+
+
+def _flag_rows(experiment_dir: Path) -> list[dict[str, str]]:
+    """``scripts/flag_table.py``'s rows (a script, not a package: loaded by path)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("flag_table", Path(__file__).with_name("flag_table.py"))
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.flag_rows(experiment_dir)
+
+
+def mountaincar_figures(experiment_dir: Path) -> dict[float, dict[str, Any]] | None:
+    """Per scale: the seeds with a final greedy return ≥ 90 and the median first greedy ≥ 90 (never: inf);
+    None while a scale lacks a finished cell on one of :data:`SEEDS`."""
+    rows = _flag_rows(experiment_dir)
+    figures: dict[float, dict[str, Any]] = {}
+    for scale, label in MOUNTAINCAR_LABELS.items():
+        cells = {int(r["seed"]): r for r in rows if r["method"] == label and int(r["seed"]) in SEEDS}
+        if set(cells) != set(SEEDS):
+            return None
+        firsts = [math.inf if r["first greedy ≥ 90 (env step)"] == "–"
+                  else int(r["first greedy ≥ 90 (env step)"].replace(" ", "")) for r in cells.values()]
+        figures[scale] = {
+            "kept": sum(float(r["final greedy return (10 episodes)"]) >= 90.0 for r in cells.values()),
+            "median_first_greedy_90": statistics.median(firsts),
+        }
+    return figures
+
+
+def mountaincar_pick(figures: dict[float, dict[str, Any]]) -> float:
+    """Most seeds kept, then the sooner median first greedy ≥ 90, then the smaller scale."""
+    return min(figures, key=lambda s: (-figures[s]["kept"], figures[s]["median_first_greedy_90"], s))
+
+
+def noisy_tv_figures(experiment_dir: Path) -> dict[float, dict[str, float]] | None:
+    """Per scale: the late noise-share and coverage IQMs over :data:`SEEDS` (rounded to three decimals, the
+    rule's resolution); None while a scale lacks a finished cell on one of them."""
+    table = method_table(experiment_dir)
+    figures = {}
+    for scale, label in LABELS.items():
+        row = table.get(label)
+        if row is None or not set(SEEDS) <= set(row["seeds"]):
+            return None
+        at = [row["seeds"].index(seed) for seed in SEEDS]
+        figures[scale] = {
+            "noise_share": round(iqm([row["noise_share"][i] for i in at]), 3),
+            "coverage_rest": round(iqm([row["coverage_rest"][i] for i in at]), 3),
+        }
+    return figures
+
+
+def noisy_tv_picks(figures: dict[float, dict[str, float]]) -> dict[str, float]:
+    """The lowest noise (ties: more coverage) and the highest coverage (ties: less noise)."""
+    return {
+        "noise": min(figures, key=lambda s: (figures[s]["noise_share"], -figures[s]["coverage_rest"])),
+        "coverage": min(figures, key=lambda s: (-figures[s]["coverage_rest"], figures[s]["noise_share"])),
+    }
+
+
+def choice(results: Path) -> dict[str, Any]:
+    """The picks and their figures from the archives under ``results``."""
+    mountaincar = mountaincar_figures(results / "study4-mountaincar-tuning")
+    noisy_tv = noisy_tv_figures(results / "study4-noisy-tv-tuning")
+    return {
+        "mountaincar": {"pick": mountaincar_pick(mountaincar) if mountaincar else None,
+                        "figures": {str(k): v for k, v in (mountaincar or {}).items()}},
+        "noisy_tv": {"picks": noisy_tv_picks(noisy_tv) if noisy_tv else None,
+                     "figures": {str(k): v for k, v in (noisy_tv or {}).items()}},
+    }
+
+
+def main(results: Path = typer.Argument(Path("results"), help="The folder of the tuning archives.")) -> None:
+    """Print RND's picks as one JSON object."""
+    typer.echo(json.dumps(choice(results), indent=2, default=str))
+
+
+if __name__ == "__main__":
+    typer.run(main)

@@ -15,12 +15,11 @@ of ``dual/plan_action_shift``): does the planner hand the task back to the actor
 from __future__ import annotations
 
 import csv
-import json
 from pathlib import Path
 
 import typer
 
-from core.experiments.cells import cell_state
+from core.experiments.flag_goals import GOAL, cell_flags, finished_cells
 
 COLUMNS = (
     "method", "seed", "first flag (env step)", "first greedy ≥ 90 (env step)",
@@ -28,29 +27,21 @@ COLUMNS = (
 )
 """The table's columns, the keys of :func:`flag_rows`' rows."""
 
-GOAL = 90.0
-"""The greedy return that counts as solved (the experiment's ``return_goal``)."""
-
-
 def _step(value: int | None) -> str:
     return "–" if value is None else f"{value:,}".replace(",", " ")
 
 
 def flag_rows(experiment_dir: Path) -> list[dict[str, str]]:
     """The rows of every finished cell under ``experiment_dir`` (done as the runner counts it: a summary.json
-    of a run that was not stopped; a stopped cell, which resumes, is left out). A training episode reached the
-    flag when its return is positive (the +100 outweighs any action cost of 999 steps)."""
+    of a run that was not stopped; a stopped cell, which resumes, is left out), read by
+    `core.experiments.flag_goals.cell_flags`."""
     rows = []
-    for cell in _finished_cells(experiment_dir):
-        episodes = _episodes(cell)
-        flags = [int(e["global_step"]) for e in episodes if float(e["charts/episodic_return"]) > 0]
-        evaluated = [e for e in episodes if e.get("eval/return")]
-        solved = [int(e["global_step"]) for e in evaluated if float(e["eval/return"]) >= GOAL]
-        summary = json.loads((cell / "summary.json").read_text())
+    for cell in finished_cells(experiment_dir):
+        flags = cell_flags(cell, GOAL)
         values = (
-            cell.parts[-3], cell.name.removeprefix("seed-"), _step(flags[0] if flags else None),
-            _step(solved[0] if solved else None), f"{summary['eval_return']:.1f}",
-            f"{len(flags)} of {len(episodes)}",
+            cell.parts[-3], cell.name.removeprefix("seed-"), _step(flags["first_flag"]),
+            _step(flags["first_greedy"]), f"{flags['final_greedy']:.1f}",
+            f"{flags['flag_episodes']} of {flags['episodes']}",
         )
         rows.append(dict(zip(COLUMNS, values, strict=True)))
     return rows
@@ -61,12 +52,6 @@ LATE_COLUMNS = (
     "planner's share of decisions", "mean plan shift of the action",
 )
 """The columns of :func:`late_rows`."""
-
-
-def _finished_cells(experiment_dir: Path) -> list[Path]:
-    """The cells the runner counts as done, by seed and then by method name."""
-    cells = [cell for cell in Path(experiment_dir).glob("*/*/seed-*") if cell_state(cell) == "done"]
-    return sorted(cells, key=lambda c: (int(c.name.removeprefix("seed-")), c.parts[-3]))
 
 
 def _episodes(cell: Path) -> list[dict[str, str]]:
@@ -80,7 +65,7 @@ def late_rows(experiment_dir: Path) -> list[dict[str, str]]:
     planner's share of the decisions (``dual/mb_decisions`` over ``dual/mb_decisions`` +
     ``dual/mf_decisions``) and the mean of ``dual/plan_action_shift`` over those episodes ("–" otherwise)."""
     rows = []
-    for cell in _finished_cells(experiment_dir):
+    for cell in finished_cells(experiment_dir):
         episodes = _episodes(cell)
         half = int(episodes[-1]["global_step"]) / 2
         late = [e for e in episodes if int(e["global_step"]) > half]

@@ -112,7 +112,7 @@ def markdown_header(baselines: Sequence[str]) -> str:
     columns = ["method", "seeds", "kept (final greedy ≥ 90)", "final greedy return, per seed",
                "IQM [95 % CI]", "first greedy ≥ 90 (env step), per seed", "IQM [95 % CI] (never = last step)"]
     for baseline in baselines:
-        columns += [f"P(final return > {baseline})", f"P(sooner than {baseline})",
+        columns += [f"P(final greedy return > {baseline})", f"P(first greedy ≥ 90 sooner than {baseline})",
                     f"Fisher p (kept) vs {baseline}"]
     return "| " + " | ".join(columns) + " |"
 

@@ -1,0 +1,65 @@
+"""Study 4's reporting grids (issue 50; the reading frozen at b383b3c): docs/results.md prints what the
+archived reporting cells give — `core.experiments.flag_goals` and `scripts/flag_table.py` on
+results/study4-mountaincar, RND's picks from `scripts/rnd_scale_choice.py` — and every reporting cell of the
+frozen planner ran the frozen configuration."""
+
+from __future__ import annotations
+
+import json
+
+import yaml
+
+from core.experiments.flag_goals import markdown_header, markdown_rows, method_table
+from tests.utils.scripts import ROOT, load_script
+
+RESULTS = ROOT / "results"
+PUBLISHED = ROOT / "docs" / "results.md"
+BASELINES = ["SAC", "SAC-pink", "SAC-pink+IM2C-value"]
+
+
+def test_the_mountaincar_reporting_table_is_what_the_archive_gives():
+    table = method_table(RESULTS / "study4-mountaincar", BASELINES)
+    published = PUBLISHED.read_text()
+    assert markdown_header(BASELINES) in published
+    for line in markdown_rows(table, BASELINES):
+        assert line in published, line
+    script = load_script("flag_table")
+    archive = RESULTS / "study4-mountaincar"
+    for rows in (script.flag_rows(archive), script.late_rows(archive)):
+        for row in rows:
+            assert "| " + " | ".join(row.values()) + " |" in published
+
+
+def test_rnds_picks_are_published_as_the_command_prints_them():
+    choice = load_script("rnd_scale_choice").choice(RESULTS)
+    assert json.dumps(choice, indent=2, default=str) in PUBLISHED.read_text()
+
+
+def test_every_reporting_cell_of_the_frozen_planner_ran_the_frozen_configuration():
+    """The frozen reading's tuning cell (c = 0.1 on pink, seed 100) and each reporting cell differ only in the
+    seed (config.yaml holds no path)."""
+    def settings(cell) -> dict:
+        config = yaml.safe_load((cell / "config.yaml").read_text())
+        del config["run"]["seed"]
+        return config
+
+    frozen = settings(RESULTS / "study4-mountaincar-tuning" / "SAC-pink+IM2C-progress-0.1/task/seed-100")
+    cells = sorted((RESULTS / "study4-mountaincar" / "SAC-pink+IM2C-progress" / "task").glob("seed-*"))
+    assert cells
+    for cell in cells:
+        assert settings(cell) == frozen, cell.name
+
+
+def test_the_readmes_first_reporting_seeds_are_the_archives():
+    """The README's study-4 row quotes the first greedy ≥ 90 of the frozen planner and of pink alone on
+    reporting seeds 16-17 as the archive holds them."""
+    table = method_table(RESULTS / "study4-mountaincar")
+
+    def firsts(label: str) -> str:
+        row = table[label]
+        steps = [row["first_greedy"][row["seeds"].index(seed)] for seed in (16, 17)]
+        return " and ".join(f"{step:,}".replace(",", " ") for step in steps)
+
+    quoted = f"{firsts('SAC-pink+IM2C-progress')} against {firsts('SAC-pink')}"
+    assert quoted == "11 525 and 10 374 against 13 406 and 12 162"
+    assert quoted in (ROOT / "README.md").read_text()

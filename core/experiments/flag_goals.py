@@ -27,6 +27,7 @@ from scipy.stats import fisher_exact
 
 from core.experiments.cells import cell_state
 from core.experiments.statistics import probability_of_improvement, score_summary
+from core.experiments.table_output import print_table
 
 GOAL = 90.0
 """The greedy return that counts as solved (the experiments' ``return_goal``)."""
@@ -158,12 +159,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"no experiment folder at {args[0]}", file=sys.stderr)
         return 2
     table = method_table(args[0], args[1:])
-    if markdown:
-        header = markdown_header(args[1:])
-        print("\n".join([header, "|" + "---|" * (header.count(" | ") + 1), *markdown_rows(table, args[1:])]))
-        return 0
-    for label, row in table.items():
-        print(json.dumps({"method": label, **row}))
+    print_table(table, markdown_header(args[1:]), markdown_rows(table, args[1:]), markdown)
     return 0
 
 

@@ -12,7 +12,6 @@ docs/results.md prints (study 4); with ``--figure``, also the scatter of
 
 from __future__ import annotations
 
-import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -22,6 +21,7 @@ from core.envs.noisy_tv import run_measures
 from core.experiments.cells import cell_state
 from core.experiments.figures import plot_noisy_tv
 from core.experiments.statistics import probability_of_improvement, score_summary
+from core.experiments.table_output import print_table
 
 MEASURES = ("noise_share", "coverage_rest")
 """The late-half measures of `core.envs.noisy_tv.late_half_measures` a table reports (without ``late/``)."""
@@ -137,13 +137,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     table = method_table(args[0], args[1:])
     if figure is not None:
         plot_noisy_tv(table, figure, title=f"{Path(args[0]).name}: late half, dots seeds, crosses IQMs")
-    if markdown:
-        header = markdown_header(args[1:])
-        separator = "|" + "---|" * (header.count(" | ") + 1)
-        print("\n".join([header, separator, *markdown_rows(table, args[1:])]))
-        return 0
-    for label, row in table.items():
-        print(json.dumps({"method": label, **row}))
+    print_table(table, markdown_header(args[1:]), markdown_rows(table, args[1:]), markdown)
     return 0
 
 

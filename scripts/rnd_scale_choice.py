@@ -25,6 +25,7 @@ from typing import Any
 
 import typer
 
+from core.experiments.flag_goals import GOAL, cell_flags, finished_cells
 from core.experiments.noisy_tv_table import method_table
 from core.experiments.statistics import iqm
 
@@ -38,31 +39,19 @@ MOUNTAINCAR_LABELS = {0.1: "SAC+RND-0.1", 0.5: "SAC+RND-0.5", 2.0: "SAC+RND-2"}
 """MountainCar's tuning grid names every scale."""
 
 
-def _flag_rows(experiment_dir: Path) -> list[dict[str, str]]:
-    """``scripts/flag_table.py``'s rows (a script, not a package: loaded by path)."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("flag_table", Path(__file__).with_name("flag_table.py"))
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.flag_rows(experiment_dir)
-
-
 def mountaincar_figures(experiment_dir: Path) -> dict[float, dict[str, Any]] | None:
     """Per scale: the seeds with a final greedy return ≥ 90 and the median first greedy ≥ 90 (never: inf);
     None while a scale lacks a finished cell on one of :data:`SEEDS`."""
-    rows = _flag_rows(experiment_dir)
+    cells = {(c.parts[-3], int(c.name.removeprefix("seed-"))): c for c in finished_cells(experiment_dir)}
     figures: dict[float, dict[str, Any]] = {}
     for scale, label in MOUNTAINCAR_LABELS.items():
-        cells = {int(r["seed"]): r for r in rows if r["method"] == label and int(r["seed"]) in SEEDS}
-        if set(cells) != set(SEEDS):
+        if any((label, seed) not in cells for seed in SEEDS):
             return None
-        firsts = [math.inf if r["first greedy ≥ 90 (env step)"] == "–"
-                  else int(r["first greedy ≥ 90 (env step)"].replace(" ", "")) for r in cells.values()]
+        flags = [cell_flags(cells[(label, seed)]) for seed in SEEDS]
         figures[scale] = {
-            "kept": sum(float(r["final greedy return (10 episodes)"]) >= 90.0 for r in cells.values()),
-            "median_first_greedy_90": statistics.median(firsts),
+            "kept": sum(f["final_greedy"] >= GOAL for f in flags),
+            "median_first_greedy_90": statistics.median(
+                math.inf if f["first_greedy"] is None else f["first_greedy"] for f in flags),
         }
     return figures
 

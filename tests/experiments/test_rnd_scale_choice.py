@@ -30,3 +30,16 @@ def test_the_noisy_tv_grid_runs_rnds_picks():
     picks = choice.choice(ROOT / "results")["noisy_tv"]["picks"]
     assert picks == {"noise": 0.1, "coverage": 2.0}
     assert _rnd_scales("study4-noisy-tv") == set(picks.values())
+
+
+def test_mountaincars_figures_are_read_from_the_cells(monkeypatch):
+    """Seed 102 has not run, so the rule waits (None); on seeds 100-101 alone it would read: 0.1 kept on one
+    seed (101 never reached greedy ≥ 90), 0.5 and 2 on both, 2 sooner."""
+    archive = ROOT / "results" / "study4-mountaincar-tuning"
+    assert choice.mountaincar_figures(archive) is None
+    monkeypatch.setattr(choice, "SEEDS", (100, 101))
+    figures = choice.mountaincar_figures(archive)
+    assert figures == {0.1: {"kept": 1, "median_first_greedy_90": float("inf")},
+                       0.5: {"kept": 2, "median_first_greedy_90": 13188.5},
+                       2.0: {"kept": 2, "median_first_greedy_90": 7150.0}}
+    assert choice.mountaincar_pick(figures) == 2.0

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import typer
 
-from core.experiments.flag_goals import GOAL, cell_flags, finished_cells
+from core.experiments.flag_goals import cell_flags, finished_cells, step_text
 
 COLUMNS = (
     "method", "seed", "first flag (env step)", "first greedy ≥ 90 (env step)",
@@ -27,20 +27,16 @@ COLUMNS = (
 )
 """The table's columns, the keys of :func:`flag_rows`' rows."""
 
-def _step(value: int | None) -> str:
-    return "–" if value is None else f"{value:,}".replace(",", " ")
-
-
 def flag_rows(experiment_dir: Path) -> list[dict[str, str]]:
     """The rows of every finished cell under ``experiment_dir`` (done as the runner counts it: a summary.json
     of a run that was not stopped; a stopped cell, which resumes, is left out), read by
     `core.experiments.flag_goals.cell_flags`."""
     rows = []
     for cell in finished_cells(experiment_dir):
-        flags = cell_flags(cell, GOAL)
+        flags = cell_flags(cell)
         values = (
-            cell.parts[-3], cell.name.removeprefix("seed-"), _step(flags["first_flag"]),
-            _step(flags["first_greedy"]), f"{flags['final_greedy']:.1f}",
+            cell.parts[-3], cell.name.removeprefix("seed-"), step_text(flags["first_flag"]),
+            step_text(flags["first_greedy"]), f"{flags['final_greedy']:.1f}",
             f"{flags['flag_episodes']} of {flags['episodes']}",
         )
         rows.append(dict(zip(COLUMNS, values, strict=True)))

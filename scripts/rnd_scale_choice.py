@@ -32,7 +32,7 @@ from core.experiments.statistics import iqm
 SEEDS = (100, 101, 102)
 """The tuning seeds every scale ran."""
 
-LABELS = {0.1: "SAC+RND-0.1", 0.5: "SAC+RND", 2.0: "SAC+RND-2"}
+NOISY_TV_LABELS = {0.1: "SAC+RND-0.1", 0.5: "SAC+RND", 2.0: "SAC+RND-2"}
 """The tuning grids' label of each scale (0.5, the default, has no suffix on the noisy TV)."""
 
 MOUNTAINCAR_LABELS = {0.1: "SAC+RND-0.1", 0.5: "SAC+RND-0.5", 2.0: "SAC+RND-2"}
@@ -66,7 +66,7 @@ def noisy_tv_figures(experiment_dir: Path) -> dict[float, dict[str, float]] | No
     rule's resolution); None while a scale lacks a finished cell on one of them."""
     table = method_table(experiment_dir)
     figures = {}
-    for scale, label in LABELS.items():
+    for scale, label in NOISY_TV_LABELS.items():
         row = table.get(label)
         if row is None or not set(SEEDS) <= set(row["seeds"]):
             return None

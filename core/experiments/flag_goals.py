@@ -69,21 +69,22 @@ def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> d
     for cell in finished_cells(experiment_dir):
         runs.setdefault(cell.parts[-3], {})[int(cell.name.removeprefix("seed-"))] = cell_flags(cell)
     table: dict[str, Any] = {}
+    censored: dict[str, list[int]] = {}  # first greedy ≥ 90, never at the cell's last step
     for label in sorted(runs):
         by_seed = runs[label]
         seeds = sorted(by_seed)
         finals = [by_seed[s]["final_greedy"] for s in seeds]
         firsts = [by_seed[s]["first_greedy"] for s in seeds]
-        censored = [by_seed[s]["last_step"] if f is None else f for s, f in zip(seeds, firsts, strict=True)]
+        censored[label] = [by_seed[s]["last_step"] if by_seed[s]["first_greedy"] is None
+                           else by_seed[s]["first_greedy"] for s in seeds]
         table[label] = {
             "seeds": seeds,
             "final_greedy": finals,
             "first_greedy": firsts,
             "kept": sum(f >= GOAL for f in finals),
             "final_greedy_iqm": score_summary(finals),
-            "first_greedy_iqm": score_summary(censored),
+            "first_greedy_iqm": score_summary(censored[label]),
             "never": sum(f is None for f in firsts),
-            "_censored": censored,
         }
     for label, row in table.items():
         for baseline in baselines:
@@ -94,17 +95,16 @@ def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> d
                 "P(higher final greedy return)": probability_of_improvement(
                     row["final_greedy"], other["final_greedy"]),
                 "P(sooner first greedy >= 90)": probability_of_improvement(
-                    [-v for v in row["_censored"]], [-v for v in other["_censored"]]),
+                    [-v for v in censored[label]], [-v for v in censored[baseline]]),
                 "Fisher p (kept)": float(fisher_exact(
                     [[row["kept"], len(row["seeds"]) - row["kept"]],
                      [other["kept"], len(other["seeds"]) - other["kept"]]])[1]),
             }
-    for row in table.values():
-        del row["_censored"]
     return table
 
 
-def _step(value: float | None) -> str:
+def step_text(value: float | None) -> str:
+    """An env step as the tables print it: rounded, thousands apart by a space; "–" for never."""
     return "–" if value is None else f"{round(value):,}".replace(",", " ")
 
 
@@ -132,8 +132,8 @@ def markdown_rows(table: dict[str, Any], baselines: Sequence[str]) -> list[str]:
             label, str(len(row["seeds"])), f"{row['kept']} of {len(row['seeds'])}",
             " / ".join(f"{v:.1f}" for v in row["final_greedy"]),
             f"{final['iqm']:.1f} [{final['ci'][0]:.1f}, {final['ci'][1]:.1f}]",
-            " / ".join(map(_step, row["first_greedy"])),
-            f"{_step(first['iqm'])} [{_step(first['ci'][0])}, {_step(first['ci'][1])}]",
+            " / ".join(map(step_text, row["first_greedy"])),
+            f"{step_text(first['iqm'])} [{step_text(first['ci'][0])}, {step_text(first['ci'][1])}]",
         ]
         for baseline in baselines:
             versus = row.get(f"vs {baseline}")

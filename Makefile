@@ -34,7 +34,8 @@ demo: $(STAMP)
 test: $(STAMP)
 	bash scripts/system-packages.sh
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q
+	# --durations: every CI log names its slowest tests (the suite is kept well under 20 minutes on 2 cores).
+	$(BIN)/python -m pytest -q --durations=25
 
 lint: $(STAMP)
 	$(BIN)/ruff check . && $(BIN)/ruff format --check .

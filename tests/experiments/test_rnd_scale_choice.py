@@ -33,13 +33,29 @@ def test_the_noisy_tv_grid_runs_rnds_picks():
 
 
 def test_mountaincars_figures_are_read_from_the_cells(monkeypatch):
-    """Seed 102 has not run, so the rule waits (None); on seeds 100-101 alone it would read: 0.1 kept on one
-    seed (101 never reached greedy ≥ 90), 0.5 and 2 on both, 2 sooner."""
+    """All nine cells: 0.1 kept the flag on seed 100 alone, 0.5 on 100 and 101, and 2 — the rule picks 2. With
+    0.1 and 0.5 lost on seed 102, 2 was the pick whatever its own seed-102 cell gave (on 100-101 it kept the
+    flag on both, sooner than 0.5): the grids gained RND-2 before that cell finished."""
     archive = ROOT / "results" / "study4-mountaincar-tuning"
-    assert choice.mountaincar_figures(archive) is None
+    figures = choice.mountaincar_figures(archive)
+    assert figures is not None and choice.mountaincar_pick(figures) == 2.0
+    assert [figures[s]["kept"] for s in (0.1, 0.5, 2.0)] == [1, 2, 3]
+    assert figures == {0.1: {"kept": 1, "median_first_greedy_90": float("inf")},
+                       0.5: {"kept": 2, "median_first_greedy_90": 13996},
+                       2.0: {"kept": 3, "median_first_greedy_90": 8274}}
     monkeypatch.setattr(choice, "SEEDS", (100, 101))
     figures = choice.mountaincar_figures(archive)
     assert figures == {0.1: {"kept": 1, "median_first_greedy_90": float("inf")},
                        0.5: {"kept": 2, "median_first_greedy_90": 13188.5},
                        2.0: {"kept": 2, "median_first_greedy_90": 7150.0}}
     assert choice.mountaincar_pick(figures) == 2.0
+
+
+def test_the_reward_grids_run_mountaincars_pick():
+    """MountainCar and cartpole (the tasks with a reward) run RND at MountainCar's pick."""
+    printed = choice.choice(ROOT / "results")["mountaincar"]
+    pick = printed["pick"]
+    assert pick == 2.0
+    assert printed["figures"]["0.1"]["median_first_greedy_90"] is None  # never, printed as JSON's null
+    for grid in ("study4-mountaincar", "study4-cartpole-swingup-sparse"):
+        assert _rnd_scales(grid) == {pick}, grid

@@ -63,3 +63,21 @@ def test_the_readmes_first_reporting_seeds_are_the_archives():
     quoted = f"{firsts('SAC-pink+IM2C-progress')} against {firsts('SAC-pink')}"
     assert quoted == "11 525 and 10 374 against 13 406 and 12 162"
     assert quoted in (ROOT / "README.md").read_text()
+
+
+def test_rnds_reporting_cells_resolve_to_its_picked_tuning_cell():
+    """RND joined the MountainCar grid at its pick (scale 2, `scripts/rnd_scale_choice.py`): each of its
+    reporting cells resolves to the tuning cell that earned the pick, the seed aside."""
+    from core.experiments.cells import expand_cells
+    from core.experiments.spec import read_experiment
+
+    tuning_cell = RESULTS / "study4-mountaincar-tuning" / "SAC+RND-2/task/seed-100"
+    tuned = yaml.safe_load((tuning_cell / "config.yaml").read_text())
+    del tuned["run"]["seed"]
+    spec = read_experiment(ROOT / "experiments" / "study4-mountaincar.yaml")
+    cells = [cell for cell in expand_cells(spec, RESULTS) if cell.label == "SAC+RND-2"]
+    assert [cell.seed for cell in cells] == list(range(16, 31))
+    for cell in cells:
+        config = yaml.safe_load(yaml.safe_dump(cell.config))
+        del config["run"]["seed"]
+        assert config == tuned, cell.seed

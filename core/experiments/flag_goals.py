@@ -6,8 +6,10 @@ Issue 50's MountainCar goals read three things of each finished cell (`cell_flag
 - **kept**: the final greedy return (the run's last evaluation, 10 episodes; ``summary.json``'s
   ``eval_return``) ≥ the goal (90) — the count is compared with Fisher's exact test, two-sided;
 - **first greedy ≥ 90**: the env step of the first evaluation whose mean return reached the goal — its IQM
-  over seeds is "sooner"; a seed that never reached it counts at its last env step (censored: never is the
-  worst), and the table says how many were censored;
+  over seeds is "sooner"; a seed that never reached it counts at the last env step of the experiment's longest
+  finished cell (censored: never is the worst, and two nevers tie — a cell's own last step would rank one
+  never before another by a few hundred steps of episode rounding), and the table says how many were
+  censored;
 - **final greedy return**: IQM with its 95 % bootstrap CI, and P(X > Y) against each baseline.
 
 ``python -m core.experiments.flag_goals EXPERIMENT_DIR [BASELINE...] [--markdown]``: one JSON line per
@@ -62,21 +64,22 @@ def finished_cells(experiment_dir: Path | str) -> list[Path]:
 
 def method_table(experiment_dir: Path | str, baselines: Sequence[str] = ()) -> dict[str, Any]:
     """Per method (in label order): seeds, per-seed final greedy returns and first greedy ≥ 90 steps, the
-    kept count, IQM [95 % CI] of the final greedy return and of the censored first greedy ≥ 90 step; against
-    each baseline with runs: P(higher final greedy return), P(sooner first greedy ≥ 90) (censored; ties half)
-    with bootstrap CIs, and Fisher's exact two-sided p on the kept counts."""
+    kept count, IQM [95 % CI] of the final greedy return and of the censored first greedy ≥ 90 step (never:
+    the longest finished cell's last step, the same for every method); against each baseline with runs:
+    P(higher final greedy return), P(sooner first greedy ≥ 90) (censored; ties half) with bootstrap CIs, and
+    Fisher's exact two-sided p on the kept counts."""
     runs: dict[str, dict[int, dict[str, Any]]] = {}
     for cell in finished_cells(experiment_dir):
         runs.setdefault(cell.parts[-3], {})[int(cell.name.removeprefix("seed-"))] = cell_flags(cell)
     table: dict[str, Any] = {}
-    censored: dict[str, list[int]] = {}  # first greedy ≥ 90, never at the cell's last step
+    never_at = max((flags["last_step"] for by_seed in runs.values() for flags in by_seed.values()), default=0)
+    censored: dict[str, list[int]] = {}  # first greedy ≥ 90, never at the longest cell's last step
     for label in sorted(runs):
         by_seed = runs[label]
         seeds = sorted(by_seed)
         finals = [by_seed[s]["final_greedy"] for s in seeds]
         firsts = [by_seed[s]["first_greedy"] for s in seeds]
-        censored[label] = [by_seed[s]["last_step"] if by_seed[s]["first_greedy"] is None
-                           else by_seed[s]["first_greedy"] for s in seeds]
+        censored[label] = [never_at if first is None else first for first in firsts]
         table[label] = {
             "seeds": seeds,
             "final_greedy": finals,

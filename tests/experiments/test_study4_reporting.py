@@ -14,7 +14,7 @@ from tests.utils.scripts import ROOT, load_script
 
 RESULTS = ROOT / "results"
 PUBLISHED = ROOT / "docs" / "results.md"
-BASELINES = ["SAC", "SAC-pink", "SAC-pink+IM2C-value"]
+BASELINES = ["SAC", "SAC-pink", "SAC-pink+IM2C-value", "SAC+RND-2"]
 
 
 def test_the_mountaincar_reporting_table_is_what_the_archive_gives():
@@ -37,17 +37,19 @@ def test_rnds_picks_are_published_as_the_command_prints_them():
 
 def test_every_reporting_cell_of_the_frozen_planner_ran_the_frozen_configuration():
     """The frozen reading's tuning cell (c = 0.1 on pink, seed 100) and each reporting cell differ only in the
-    seed (config.yaml holds no path)."""
+    seed (config.yaml holds no path), on MountainCar and on the noisy TV."""
     def settings(cell) -> dict:
         config = yaml.safe_load((cell / "config.yaml").read_text())
         del config["run"]["seed"]
         return config
 
-    frozen = settings(RESULTS / "study4-mountaincar-tuning" / "SAC-pink+IM2C-progress-0.1/task/seed-100")
-    cells = sorted((RESULTS / "study4-mountaincar" / "SAC-pink+IM2C-progress" / "task").glob("seed-*"))
-    assert cells
-    for cell in cells:
-        assert settings(cell) == frozen, cell.name
+    for tuning, reporting in (("study4-mountaincar-tuning/SAC-pink+IM2C-progress-0.1", "study4-mountaincar"),
+                              ("study4-noisy-tv-tuning/SAC-pink+IM2C-progress", "study4-noisy-tv")):
+        frozen = settings(RESULTS / tuning / "task/seed-100")
+        cells = sorted((RESULTS / reporting / "SAC-pink+IM2C-progress" / "task").glob("seed-*"))
+        assert cells
+        for cell in cells:
+            assert settings(cell) == frozen, (reporting, cell.name)
 
 
 def test_the_readmes_first_reporting_seeds_are_the_archives():
@@ -81,3 +83,19 @@ def test_rnds_reporting_cells_resolve_to_its_picked_tuning_cell():
         config = yaml.safe_load(yaml.safe_dump(cell.config))
         del config["run"]["seed"]
         assert config == tuned, cell.seed
+
+
+NOISY_TV_BASELINES = ["SAC", "SAC-pink", "SAC+RND-0.1", "SAC+RND-2", "SAC-pink+IM2C-disagreement"]
+"""The noisy TV's comparisons (issue 50): the learner alone, pink noise, RND at each measure's pick (0.1
+against the noise share, 2 against coverage) and the disagreement planner."""
+
+
+def test_the_noisy_tv_reporting_table_is_what_the_archive_gives():
+    from core.experiments import noisy_tv_table
+
+    table = noisy_tv_table.method_table(RESULTS / "study4-noisy-tv", NOISY_TV_BASELINES)
+    assert "SAC-pink+IM2C-progress" in table
+    published = PUBLISHED.read_text()
+    assert noisy_tv_table.markdown_header(NOISY_TV_BASELINES) in published
+    for line in noisy_tv_table.markdown_rows(table, NOISY_TV_BASELINES):
+        assert line in published, line

@@ -39,7 +39,6 @@ def test_mountaincars_figures_are_read_from_the_cells(monkeypatch):
     archive = ROOT / "results" / "study4-mountaincar-tuning"
     figures = choice.mountaincar_figures(archive)
     assert figures is not None and choice.mountaincar_pick(figures) == 2.0
-    assert [figures[s]["kept"] for s in (0.1, 0.5, 2.0)] == [1, 2, 3]
     assert figures == {0.1: {"kept": 1, "median_first_greedy_90": float("inf")},
                        0.5: {"kept": 2, "median_first_greedy_90": 13996},
                        2.0: {"kept": 3, "median_first_greedy_90": 8274}}

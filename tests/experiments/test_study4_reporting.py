@@ -9,12 +9,24 @@ import json
 
 import yaml
 
-from core.experiments.flag_goals import markdown_header, markdown_rows, method_table
+from core.experiments.flag_goals import markdown_header, markdown_rows, method_table, step_text
 from tests.utils.scripts import ROOT, load_script
 
 RESULTS = ROOT / "results"
 PUBLISHED = ROOT / "docs" / "results.md"
 BASELINES = ["SAC", "SAC-pink", "SAC-pink+IM2C-value", "SAC+RND-2"]
+
+
+def _without_seed(config: dict) -> dict:
+    """A cell's resolved config with ``run.seed`` taken out (config.yaml holds no path): what two cells of one
+    configuration on two seeds share."""
+    config = yaml.safe_load(yaml.safe_dump(config))  # a copy, tuples as lists as config.yaml holds them
+    del config["run"]["seed"]
+    return config
+
+
+def _stored_settings(cell) -> dict:
+    return _without_seed(yaml.safe_load((cell / "config.yaml").read_text()))
 
 
 def test_the_mountaincar_reporting_table_is_what_the_archive_gives():
@@ -37,19 +49,14 @@ def test_rnds_picks_are_published_as_the_command_prints_them():
 
 def test_every_reporting_cell_of_the_frozen_planner_ran_the_frozen_configuration():
     """The frozen reading's tuning cell (c = 0.1 on pink, seed 100) and each reporting cell differ only in the
-    seed (config.yaml holds no path), on MountainCar and on the noisy TV."""
-    def settings(cell) -> dict:
-        config = yaml.safe_load((cell / "config.yaml").read_text())
-        del config["run"]["seed"]
-        return config
-
+    seed, on MountainCar and on the noisy TV."""
     for tuning, reporting in (("study4-mountaincar-tuning/SAC-pink+IM2C-progress-0.1", "study4-mountaincar"),
                               ("study4-noisy-tv-tuning/SAC-pink+IM2C-progress", "study4-noisy-tv")):
-        frozen = settings(RESULTS / tuning / "task/seed-100")
+        frozen = _stored_settings(RESULTS / tuning / "task/seed-100")
         cells = sorted((RESULTS / reporting / "SAC-pink+IM2C-progress" / "task").glob("seed-*"))
         assert cells
         for cell in cells:
-            assert settings(cell) == frozen, (reporting, cell.name)
+            assert _stored_settings(cell) == frozen, (reporting, cell.name)
 
 
 def test_the_readmes_first_reporting_seeds_are_the_archives():
@@ -60,7 +67,7 @@ def test_the_readmes_first_reporting_seeds_are_the_archives():
     def firsts(label: str) -> str:
         row = table[label]
         steps = [row["first_greedy"][row["seeds"].index(seed)] for seed in (16, 17)]
-        return " and ".join(f"{step:,}".replace(",", " ") for step in steps)
+        return " and ".join(map(step_text, steps))
 
     quoted = f"{firsts('SAC-pink+IM2C-progress')} against {firsts('SAC-pink')}"
     assert quoted == "11 525 and 10 374 against 13 406 and 12 162"
@@ -73,16 +80,12 @@ def test_rnds_reporting_cells_resolve_to_its_picked_tuning_cell():
     from core.experiments.cells import expand_cells
     from core.experiments.spec import read_experiment
 
-    tuning_cell = RESULTS / "study4-mountaincar-tuning" / "SAC+RND-2/task/seed-100"
-    tuned = yaml.safe_load((tuning_cell / "config.yaml").read_text())
-    del tuned["run"]["seed"]
+    tuned = _stored_settings(RESULTS / "study4-mountaincar-tuning" / "SAC+RND-2/task/seed-100")
     spec = read_experiment(ROOT / "experiments" / "study4-mountaincar.yaml")
     cells = [cell for cell in expand_cells(spec, RESULTS) if cell.label == "SAC+RND-2"]
     assert [cell.seed for cell in cells] == list(range(16, 31))
     for cell in cells:
-        config = yaml.safe_load(yaml.safe_dump(cell.config))
-        del config["run"]["seed"]
-        assert config == tuned, cell.seed
+        assert _without_seed(cell.config) == tuned, cell.seed
 
 
 NOISY_TV_BASELINES = ["SAC", "SAC-pink", "SAC+RND-0.1", "SAC+RND-2", "SAC-pink+IM2C-disagreement"]
